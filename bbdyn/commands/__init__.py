@@ -1,0 +1,1 @@
+"""Subcommands of the ``bbdyn`` CLI, one module each (see ``bbdyn.cli``)."""

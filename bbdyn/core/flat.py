@@ -1,0 +1,242 @@
+"""Exact impact map of the flat bouncing ball (MODEL.md section 1).
+
+State between events: time as ``(periods, phase)`` with ``phase = w t mod 2 pi``,
+and the *relative* velocity ``vrel = v - u`` of the particle with respect to the
+plate just after the event.  Working with the relative velocity keeps tiny
+bounces (chattering) accurate: the absolute velocity ``v = vrel + u`` would
+lose ``|u| / vrel`` in relative precision.
+
+Gap after an event at phase ``theta`` (``s0 = sin theta``, ``c0 = cos theta``),
+with ``tau`` the time since the event (see ``plate.py`` for ``rise`` and ``dvel``):
+
+    G(tau)  = vrel tau - g tau^2 / 2 - rise(tau)        (mm)
+    G'(tau) = vrel - g tau - dvel(tau)                  (mm/s)
+    G''     = -g - A w^2 sin(theta + w tau),  so  -G'' <= M = g + A w^2.
+
+First contact (the guarantee).  From a point ``tau_a`` with ``G(tau_a) > 0`` the
+Taylor bound ``G(tau_a + s) >= G + G' s - M s^2 / 2`` holds for every s, so the
+gap cannot vanish before the positive root ``s*`` of the right-hand side.  The
+search steps by ``s*`` (a "safe step") and therefore never passes a contact; it
+also skips, in one jump, the interval where the particle is above the plate's
+highest point ``+A``, and the interval where the plate accelerates downward
+faster than g (``G'' > 0``: no contact can start there).  Near a transversal
+contact the safe step is a Newton step corrected by the curvature bound
+(quadratic convergence from below); at an exactly tangential (grazing) contact
+it converges linearly.  The search stops when the safe step is below
+``ROOT_STEP_REL`` times the flight time, or when rounding makes ``G <= 0``.
+
+Impact law: ``v+ - u = alpha (u - v-)``, i.e. ``vrel+ = -alpha vrel-``.
+
+Chattering: after an impact with small ``vrel+`` the particle bounces ever
+lower in the effective gravity ``g_eff = g + A w^2 sin theta > 0``.  To leading
+order the flights are ``2 vrel_k / g_eff`` with ``vrel_k = alpha^k vrel+``, whose
+sum accumulates after ``tau_inf = 2 vrel+ / (g_eff (1 - alpha))``.  The variation
+of ``g_eff`` over ``tau_inf`` changes this by at most about
+``(|dg_eff/dt| + |d^2 g_eff/dt^2| tau_inf) tau_inf^2 / g_eff``; when that estimate is
+below ``CHATTER_REL_TOL`` periods (and ``g_eff`` stays positive over the interval),
+the rest of the sequence is summed in closed form and the particle sticks.
+Stuck, it rides the plate until ``sin(w t) < -1/Gamma`` (release, with the
+plate's velocity, ``vrel = 0``); for Gamma <= 1 it never leaves.
+"""
+
+import math
+
+from numba import njit
+
+from bbdyn.core.plate import (
+    advance_phase,
+    plate_dvel,
+    plate_rise,
+    release_window,
+)
+from bbdyn.core.status import (
+    BAD_STATE,
+    IMPACT,
+    NON_FINITE,
+    OK,
+    RELEASE,
+    ROOT_NOT_CONVERGED,
+    STICK,
+    STUCK_FOREVER,
+)
+from bbdyn.core.tolerances import CHATTER_REL_TOL, ROOT_MAX_STEPS, ROOT_STEP_REL
+
+
+@njit(cache=True, inline="always")
+def safe_step(G, Gp, M):
+    """Positive root of ``G + Gp s - M s^2 / 2 = 0`` for ``G >= 0``, ``M > 0``, without cancellation."""
+    r = math.sqrt(Gp * Gp + 2.0 * M * G)
+    if Gp >= 0.0:
+        return (Gp + r) / M
+    return 2.0 * G / (r - Gp)
+
+
+@njit(cache=True, inline="always")
+def flat_gap(vrel, g, A, w, s0, c0, tau):
+    """Gap G (mm) and its rate G' (mm/s) at ``tau`` after an event at phase theta."""
+    x = w * tau
+    sin_x = math.sin(x)
+    sin_half = math.sin(0.5 * x)
+    G = vrel * tau - 0.5 * g * tau * tau - plate_rise(A, s0, c0, x, sin_x, sin_half)
+    Gp = vrel - g * tau - plate_dvel(A, w, s0, c0, sin_x, sin_half)
+    return G, Gp
+
+
+@njit(cache=True)
+def flat_flight(phase, vrel, kp):
+    """Time to the first contact after an event, and the relative velocity there.
+
+    Parameters
+    ----------
+    phase : float
+        Phase w t (rad, in [0, 2 pi)) of the event that starts the flight.
+    vrel : float
+        Relative velocity v - u (mm/s) just after it; > 0, or >= 0 where the
+        plate accelerates downward faster than g (a release).
+    kp : KernelParams
+
+    Returns
+    -------
+    tau : float
+        Flight time (s), > 0.
+    vrel_minus : float
+        Relative velocity v - u just before the contact (mm/s), <= 0.
+    status : int
+        ``OK``, ``BAD_STATE`` (vrel <= 0 where the plate holds the particle) or
+        ``ROOT_NOT_CONVERGED``.
+    """
+    A, w, g, M = kp.A, kp.w, kp.g, kp.curv_bound
+    s0 = math.sin(phase)
+    c0 = math.cos(phase)
+    tau = 0.0
+    G = 0.0
+    Gp = vrel
+    theta_r, theta_e = release_window(kp.gamma)
+    if theta_r <= phase < theta_e:
+        # G'' > 0 until theta_e and G(0) = 0, G'(0) >= 0: no contact before theta_e.
+        if vrel < 0.0:
+            return 0.0, vrel, BAD_STATE
+        tau = (theta_e - phase) / w
+        G, Gp = flat_gap(vrel, g, A, w, s0, c0, tau)
+    elif not vrel > 0.0:
+        return 0.0, vrel, BAD_STATE
+
+    # Interval in which the particle is above +A, the plate's highest point.
+    v_abs = vrel - A * w * c0
+    h_above = A + A * s0  # +A minus the plate height -A s0 at the start, >= 0
+    tau_up = math.inf
+    tau_down = -math.inf
+    disc = v_abs * v_abs - 2.0 * g * h_above
+    if v_abs > 0.0 and disc > 0.0:
+        tau_down = (v_abs + math.sqrt(disc)) / g
+        tau_up = 2.0 * h_above / (g * tau_down)
+
+    for _ in range(ROOT_MAX_STEPS):
+        if tau_up < tau < tau_down:
+            tau = tau_down
+            G, Gp = flat_gap(vrel, g, A, w, s0, c0, tau)
+        if G <= 0.0 and tau > 0.0:
+            return tau, min(Gp, 0.0), OK
+        step = safe_step(G, Gp, M)
+        if step <= ROOT_STEP_REL * tau:
+            return tau, min(Gp, 0.0), OK
+        tau += step
+        G, Gp = flat_gap(vrel, g, A, w, s0, c0, tau)
+    return tau, Gp, ROOT_NOT_CONVERGED
+
+
+@njit(cache=True, inline="always")
+def chatter_time(phase, vrel, kp):
+    """Accumulation time (s) of the chattering sequence started with ``vrel`` at ``phase``.
+
+    Returns ``inf`` when the closed-form sum is not yet accurate to
+    ``CHATTER_REL_TOL`` periods, or when the plate does not hold the particle
+    (``g_eff <= 0`` somewhere in the interval), or for ``alpha = 1``.
+    """
+    A, w, g, alpha = kp.A, kp.w, kp.g, kp.alpha
+    g_eff = g + A * w * w * math.sin(phase)
+    if g_eff <= 0.0 or alpha >= 1.0:
+        return math.inf
+    tau_inf = 2.0 * vrel / (g_eff * (1.0 - alpha))
+    # g_eff must stay positive over the interval: its rate is at most A w^3.
+    if A * w * w * w * tau_inf >= 0.5 * g_eff:
+        return math.inf
+    dg = A * w * w * w * abs(math.cos(phase)) + A * w * w * w * w * tau_inf
+    if dg * tau_inf * tau_inf > CHATTER_REL_TOL * kp.period * g_eff:
+        return math.inf
+    return tau_inf
+
+
+@njit(cache=True)
+def flat_event(periods, phase, vrel, kind, kp):
+    """Advance the flat ball from one event to the next.
+
+    Parameters
+    ----------
+    periods, phase : float
+        Time of the current event as whole driving periods and phase (rad).
+    vrel : float
+        Relative velocity v - u just after it (mm/s); 0 for STICK.
+    kind : int
+        IMPACT, STICK or RELEASE.
+    kp : KernelParams
+
+    Returns
+    -------
+    (periods, phase, vrel, kind, status) of the next event.  ``status`` is
+    ``STUCK_FOREVER`` (state unchanged) for a stuck particle with Gamma <= 1.
+    """
+    if kind == STICK:
+        theta_r, _ = release_window(kp.gamma)
+        if theta_r < 0.0:
+            return periods, phase, 0.0, STICK, STUCK_FOREVER
+        if phase <= theta_r:
+            return periods, theta_r, 0.0, RELEASE, OK
+        return periods + 1.0, theta_r, 0.0, RELEASE, OK
+
+    tau, vrel_minus, status = flat_flight(phase, vrel, kp)
+    if status != OK:
+        return periods, phase, vrel, kind, status
+    periods, phase = advance_phase(periods, phase, kp.w * tau)
+    vrel_plus = -kp.alpha * vrel_minus
+    if not math.isfinite(vrel_plus):
+        return periods, phase, vrel_plus, IMPACT, NON_FINITE
+    g_eff = kp.g + kp.A * kp.w * kp.w * math.sin(phase)
+    if g_eff > 0.0:
+        if vrel_plus == 0.0:
+            return periods, phase, 0.0, STICK, OK
+        tau_inf = chatter_time(phase, vrel_plus, kp)
+        if tau_inf < math.inf:
+            periods, phase = advance_phase(periods, phase, kp.w * tau_inf)
+            return periods, phase, 0.0, STICK, OK
+    return periods, phase, vrel_plus, IMPACT, OK
+
+
+@njit(cache=True)
+def flat_run(periods, phase, vrel, kind, kp, out_periods, out_phase, out_vrel, out_kind):
+    """Iterate ``flat_event`` and write each event into the ``out_*`` arrays (in place).
+
+    Returns ``(n_written, status)``; stops early at a failure or at ``STUCK_FOREVER``.
+    """
+    for i in range(out_phase.shape[0]):
+        periods, phase, vrel, kind, status = flat_event(periods, phase, vrel, kind, kp)
+        if status != OK:
+            return i, status
+        out_periods[i] = periods
+        out_phase[i] = phase
+        out_vrel[i] = vrel
+        out_kind[i] = kind
+    return out_phase.shape[0], OK
+
+
+@njit(cache=True)
+def flat_run_count(periods, phase, vrel, kind, kp, n_events):
+    """Iterate ``n_events`` events without storing them (for benchmarks and transients).
+
+    Returns the final ``(periods, phase, vrel, kind, n_done, status)``.
+    """
+    for i in range(n_events):
+        periods, phase, vrel, kind, status = flat_event(periods, phase, vrel, kind, kp)
+        if status != OK:
+            return periods, phase, vrel, kind, i, status
+    return periods, phase, vrel, kind, n_events, OK

@@ -1,0 +1,83 @@
+"""Scenes (SCENES.md): one module per figure or analysis.
+
+Each scene module defines
+
+* ``TITLE``: one line;
+* ``QUICK`` and ``FULL``: dicts of settings (quick: seconds to a minute on 2 cores);
+* ``compute(settings, seed) -> Result``: computes only what the figure needs;
+* ``draw(result, ax=None)``: draws a saved or fresh result, returns the figure.
+
+``run_scene`` computes, saves the numbers (``<id>.npz`` / ``<id>.json``, with
+parameters, seed, version and run time) and the figure (``<id>.png``) side by
+side, so a figure can be redrawn from its data with ``redraw_scene``.
+"""
+
+from __future__ import annotations
+
+import importlib
+import time
+from pathlib import Path
+
+#: scene id -> module under bbdyn.scenes
+SCENES = {
+    "S1": "s1_tongues",
+    "S2": "s2_geometry",
+    "S6": "s6_phase_space_58",
+    "S7": "s7_phase_space_85",
+    "S8": "s8_orbit_88",
+}
+
+
+def scene_module(scene_id: str):
+    """The module of scene ``scene_id`` (case-insensitive), or ValueError listing the known ids."""
+    key = scene_id.upper()
+    if key not in SCENES:
+        raise ValueError(f"unknown scene {scene_id!r}; known: {', '.join(SCENES)}")
+    return importlib.import_module(f"bbdyn.scenes.{SCENES[key]}")
+
+
+def run_scene(scene_id: str, *, quick: bool = True, out_dir: str | Path = "out", seed: int = 0):
+    """Compute scene ``scene_id``, save its numbers and figure in ``out_dir``.
+
+    Returns ``(result, png_path)``.
+    """
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    module = scene_module(scene_id)
+    settings = dict(module.QUICK if quick else module.FULL)
+    start = time.perf_counter()
+    result = module.compute(settings, seed)
+    result.meta.update(
+        scene=scene_id.upper(),
+        setting="quick" if quick else "full",
+        settings=settings,
+        seed=seed,
+        scene_wall_s=time.perf_counter() - start,
+    )
+    out_dir = Path(out_dir)
+    result.save(out_dir / scene_id.upper())
+    fig = module.draw(result)
+    png = out_dir / f"{scene_id.upper()}.png"
+    fig.savefig(png, dpi=150, bbox_inches="tight")
+    plt.close(fig)
+    return result, png
+
+
+def redraw_scene(json_path: str | Path) -> Path:
+    """Redraw a saved scene from its numbers, without recomputing; returns the PNG path."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from bbdyn.results import load_result
+
+    result = load_result(json_path)
+    fig = scene_module(result.meta["scene"]).draw(result)
+    png = Path(json_path).with_suffix(".png")
+    fig.savefig(png, dpi=150, bbox_inches="tight")
+    plt.close(fig)
+    return png
