@@ -1,4 +1,4 @@
-"""``bbdyn scene ID [--quick|--full] [--out DIR] [--seed S]``: draw one scene and save its numbers."""
+"""`bbdyn scene ID [--quick|--full] [--out DIR]`: draw one scene, save its numbers."""
 
 HELP = "compute and draw one scene (SCENES.md), saving its numbers beside the figure"
 

@@ -64,7 +64,7 @@ from bbdyn.core.tolerances import CHATTER_REL_TOL, ROOT_MAX_STEPS, ROOT_STEP_REL
 
 @njit(cache=True, inline="always")
 def safe_step(G, Gp, M):
-    """Positive root of ``G + Gp s - M s^2 / 2 = 0`` for ``G >= 0``, ``M > 0``, without cancellation."""
+    """Positive root of ``G + Gp s - M s^2 / 2 = 0`` (G >= 0, M > 0), without cancellation."""
     r = math.sqrt(Gp * Gp + 2.0 * M * G)
     if Gp >= 0.0:
         return (Gp + r) / M
