@@ -18,6 +18,7 @@ COMMANDS = {
     "scene": "scene",
     "bench": "bench",
     "simulate": "simulate",
+    "reproduce": "reproduce",
 }
 
 

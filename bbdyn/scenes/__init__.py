@@ -21,10 +21,6 @@ from pathlib import Path
 #: scene id -> module under bbdyn.scenes
 SCENES = {
     "S1": "s1_tongues",
-    "S2": "s2_geometry",
-    "S6": "s6_phase_space_58",
-    "S7": "s7_phase_space_85",
-    "S8": "s8_orbit_88",
 }
 
 
