@@ -1,0 +1,52 @@
+"""Result objects: save/load round trip without pickling, atomic writes, kind dispatch."""
+
+import json
+
+import numpy as np
+import pytest
+
+from bbdyn import Params
+from bbdyn.results import Result, load_result, make_meta
+
+
+class _Toy(Result):
+    kind = "test_toy"
+
+
+def test_round_trip_preserves_arrays_and_meta(tmp_path):
+    arrays = {"x": np.linspace(0, 1, 7), "k": np.arange(5, dtype=np.int64)}
+    meta = make_meta(Params(f=58.0), seed=3, wall_s=0.5, note="hello")
+    path = _Toy(arrays, meta).save(tmp_path / "toy")
+    loaded = load_result(path)
+    assert isinstance(loaded, _Toy)
+    for key, value in arrays.items():
+        np.testing.assert_array_equal(loaded[key], value)
+        assert loaded[key].dtype == value.dtype
+    assert loaded.meta["params"]["f"] == 58.0
+    assert loaded.meta["seed"] == 3
+    assert loaded.meta["note"] == "hello"
+    assert not list(tmp_path.glob("*.tmp")), "temporary files left behind"
+
+
+def test_object_arrays_are_refused_on_load(tmp_path):
+    """Stored results load with allow_pickle=False, so no code runs on load."""
+    np.savez(tmp_path / "evil.npz", x=np.array([{"a": 1}], dtype=object))
+    (tmp_path / "evil.json").write_text(json.dumps({"kind": "test_toy", "meta": {}}))
+    with pytest.raises(ValueError, match="pickle"):
+        load_result(tmp_path / "evil")
+
+
+def test_unknown_kind_is_refused(tmp_path):
+    _Toy({"x": np.zeros(1)}, {}).save(tmp_path / "a")
+    (tmp_path / "a.json").write_text(json.dumps({"kind": "nope", "meta": {}}))
+    with pytest.raises(ValueError, match="unknown result kind 'nope'"):
+        load_result(tmp_path / "a")
+
+
+def test_load_checks_the_class(tmp_path):
+    class _Other(Result):
+        kind = "test_other"
+
+    path = _Toy({"x": np.zeros(1)}, {}).save(tmp_path / "a")
+    with pytest.raises(TypeError, match="not a _Other"):
+        _Other.load(path)
