@@ -20,3 +20,17 @@ ROOT_MAX_STEPS = 100_000
 #: the local effective gravity) once the estimated error of the accumulation
 #: time falls below this fraction of a driving period.
 CHATTER_REL_TOL = 64.0 * EPS
+
+#: Accuracy target for one impact time of the exact flat map (s), issue 2; the
+#: search itself stops at ROOT_STEP_REL of the flight, i.e. ~1e-18 s for 10 ms.
+IMPACT_TIME_TOL = 1e-14
+
+#: Closed-form time integrals of observables over one flight or stuck interval
+#: (Simpson's rule, exact for the quadratics of a parabola; harmonic closed forms
+#: for a particle riding the floor) agree with adaptive quadrature to this
+#: relative accuracy: a few dozen roundings of the inputs.
+OBS_INTEGRAL_REL_TOL = 64.0 * EPS
+
+#: Relative tolerance asked of scipy.integrate.quad when tests check the closed forms
+#: (quad accepts nothing below 50 EPS; on these smooth integrands it does far better).
+QUAD_REL_TOL = 64.0 * EPS

@@ -1,0 +1,123 @@
+"""Exact observables along billiard trajectories (MODEL.md sections 3 and 4).
+
+Between two events a particle either flies on a parabola or, after a STICK,
+rides the floor.  Both motions are known in closed form, so time integrals of
+the energies over any sub-interval are computed exactly (no sampling):
+
+* flight from an event at height ``y0`` with velocities ``(vx, vy0)``:
+  ``y = y0 + vy0 tau - g tau^2 / 2``, ``vy = vy0 - g tau``.  ``E_y = vy^2/2`` and
+  ``g y`` are quadratics in ``tau``, so Simpson's rule on ``[ta, tb]`` is exact
+  and free of the cancellation of ``tb^3 - ta^3``; ``E_x = vx^2/2`` is constant.
+* stuck at ``xi`` on the floor: ``y = -A sin(w t) + b(xi)``, ``vy = u = -A w cos(w t)``,
+  ``vx = 0``, with ``b(xi) = sqrt(R^2 - xi^2) - c0`` the height of the arc above
+  the wedges.  Over a whole period ``<E_y> = A^2 w^2 / 4`` and ``<g y> = g b``.
+
+Traps (MODEL.md section 4): wedge ``l`` sits at ``x = l d`` between the tops of
+the bumps of tiles ``l - 1`` and ``l``, so a contact in tile ``l`` at ``xi < 0``
+is in trap ``l`` and one at ``xi >= 0`` in trap ``l + 1`` (a contact exactly on a
+top is given to the right-hand trap).
+
+Time is kept as ``(periods, phase)``; differences of such times are formed
+period part first, so they keep full relative precision in long runs.
+"""
+
+import math
+
+from numba import njit
+
+
+@njit(cache=True, inline="always")
+def time_between(periods1, phase1, periods0, phase0, w, period):
+    """Time (s) from ``(periods0, phase0)`` to ``(periods1, phase1)``; negative if earlier."""
+    return (periods1 - periods0) * period + (phase1 - phase0) / w
+
+
+@njit(cache=True, inline="always")
+def is_before(periods1, phase1, periods0, phase0):
+    """True if time ``(periods1, phase1)`` is strictly earlier than ``(periods0, phase0)``."""
+    return periods1 < periods0 or (periods1 == periods0 and phase1 < phase0)
+
+
+@njit(cache=True)
+def flight_integrals(vx, vy0, y0, g, ta, tb):
+    """Integrals over ``[ta, tb]`` (s after the flight's start) of one parabolic flight.
+
+    Parameters
+    ----------
+    vx, vy0 : float
+        Horizontal and vertical velocity (mm/s) at the start of the flight.
+    y0 : float
+        Height (mm) at the start of the flight.
+    g : float
+        Gravitational acceleration (mm/s^2).
+    ta, tb : float
+        Integration limits (s), ``0 <= ta <= tb``.
+
+    Returns
+    -------
+    (I_Ex, I_Ey, I_pot) : floats
+        Integrals of ``vx^2/2``, ``vy^2/2`` and ``g y`` (kg mm^2 / s); their sum is
+        the integral of ``E`` (MODEL.md section 3), which is constant in flight.
+    """
+    dt = tb - ta
+    tm = 0.5 * (ta + tb)
+    va = vy0 - g * ta
+    vm = vy0 - g * tm
+    vb = vy0 - g * tb
+    ya = y0 + ta * (vy0 - 0.5 * g * ta)
+    ym = y0 + tm * (vy0 - 0.5 * g * tm)
+    yb = y0 + tb * (vy0 - 0.5 * g * tb)
+    I_Ex = 0.5 * vx * vx * dt
+    I_Ey = dt * (va * va + 4.0 * vm * vm + vb * vb) / 12.0
+    I_pot = g * dt * (ya + 4.0 * ym + yb) / 6.0
+    return I_Ex, I_Ey, I_pot
+
+
+@njit(cache=True)
+def stuck_integrals(A, w, g, b, phase_a, dt):
+    """Integrals over ``dt`` seconds from phase ``phase_a`` of a particle riding the floor.
+
+    Parameters
+    ----------
+    A, w, g : float
+        Amplitude (mm), angular frequency (rad/s), gravity (mm/s^2).
+    b : float
+        Height of the contact point above the wedges, ``b(xi)`` (mm).
+    phase_a : float
+        Phase ``w t`` at the start (rad).
+    dt : float
+        Duration (s), >= 0.
+
+    Returns
+    -------
+    (I_Ey, I_pot) : floats
+        Integrals of ``u^2/2 = A^2 w^2 cos^2(w t) / 2`` and of ``g (b - A sin(w t))``
+        (kg mm^2 / s); ``E_x = 0`` while stuck.
+    """
+    phase_b = phase_a + w * dt
+    # int cos^2 = dt/2 + (sin 2 theta_b - sin 2 theta_a) / (4 w); the difference of
+    # sines is written as a product so short intervals keep their relative accuracy.
+    dsin2 = 2.0 * math.cos(phase_a + phase_b) * math.sin(w * dt)
+    I_Ey = 0.5 * A * A * w * w * (0.5 * dt + dsin2 / (4.0 * w))
+    # int -A sin = A (cos theta_b - cos theta_a) / w = -2 A sin(mid) sin(w dt / 2) / w
+    dcos = -2.0 * math.sin(0.5 * (phase_a + phase_b)) * math.sin(0.5 * w * dt)
+    I_pot = g * (b * dt + A * dcos / w)
+    return I_Ey, I_pot
+
+
+@njit(cache=True, inline="always")
+def trap_of(tile, xi):
+    """Trap (wedge index, integer-valued float) of a contact at ``xi`` in tile ``tile``."""
+    if xi >= 0.0:
+        return tile + 1.0
+    return tile
+
+
+@njit(cache=True, inline="always")
+def displacement(tile, xi, tile0, xi0, d):
+    """``x - x0`` (mm) between ``(tile, xi)`` and ``(tile0, xi0)``, the tile part first.
+
+    The tile difference is an exact integer, so the result keeps full precision
+    for any distance travelled.
+    """
+    return (tile - tile0) * d + (xi - xi0)
