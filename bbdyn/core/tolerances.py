@@ -34,3 +34,22 @@ OBS_INTEGRAL_REL_TOL = 64.0 * EPS
 #: Relative tolerance asked of scipy.integrate.quad when tests check the closed forms
 #: (quad accepts nothing below 50 EPS; on these smooth integrands it does far better).
 QUAD_REL_TOL = 64.0 * EPS
+
+#: Newton solver for periodic orbits of the exact flat map (bbdyn.tongues): converged
+#: when the closing residual, relative to 2 pi k (phase) and to the velocity scale,
+#: is below this.  The flight phases are exact to a few ulp (ROOT_STEP_REL), so a
+#: few hundred ulp leaves room for the sum over m flights.
+ORBIT_NEWTON_TOL = 256.0 * EPS
+
+#: Newton iterations before giving up (quadratic convergence needs fewer than ten
+#: from a good guess; the damped start near a fold needs more).
+ORBIT_NEWTON_MAX_ITER = 60
+
+#: Relative step of central finite differences (balances truncation h^2 against
+#: rounding EPS/h) and the agreement they can show with an analytic derivative.
+FD_STEP_REL = EPS ** (1.0 / 3.0)
+FD_AGREE_REL = 1.0e3 * EPS ** (2.0 / 3.0)
+
+#: Relative tolerance of the Brent root finders for tongue boundaries (scipy's
+#: brentq requires rtol >= 4 EPS).
+BOUNDARY_RTOL = 4.0 * EPS
