@@ -1,0 +1,6 @@
+"""Benchmarks (SCENES.md B2): timing helpers, reference methods and work-precision runs.
+
+``timing`` is generic (compile first, repeat, medians, ratios within one run);
+``flat`` is the flat-ball benchmark; ``fixed_step`` the paper-like event finder
+it compares against.  Importing this package loads neither scipy nor matplotlib.
+"""

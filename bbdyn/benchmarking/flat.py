@@ -1,0 +1,532 @@
+"""Work-precision benchmark of the flat ball (SCENES.md B2, issue 2 item 8).
+
+Three ways to find the next impact are compared against the mpmath reference
+``bbdyn.flat_reference.reference_impacts``:
+
+* ``exact``: bbdyn's first-contact search ``bbdyn.core.flat.flat_flight``;
+* ``fixed_step``: the paper-like sampler of ``bbdyn.benchmarking.fixed_step``
+  (flight sampled at ``dt``, the crossing halved down to ``dt_min``);
+* ``solve_ivp``: scipy's RK45 / DOP853 with a terminal event, either in the lab
+  frame (state ``y, v``, ``y'' = -g``, event ``y - y_p(t)``: the solution is a
+  parabola, which Runge-Kutta methods reproduce exactly, so only the event
+  location and missed contacts matter) or in the plate frame (state ``G, G'``,
+  ``G'' = -g - A w^2 sin(w t)``, event ``G``: here the tolerance matters).
+
+The case is chaotic and has no chattering in the compared window (``CASE``).
+Chaos amplifies any difference by about e^1.4 per impact, so errors are
+*one-step* errors: every method restarts from the same float64 start state
+(the reference trajectory's states, rounded) and its next impact is compared
+with the reference computed from exactly that start state.  Speeds are
+impacts per second on that same set of flights, single core, median over
+repeats after compilation; the exact map's speed over a long continuous run
+(all event kinds) is reported as its own row.
+
+Long-run statistics compare the fixed-step method with the exact map over many
+impacts of the same chaotic case: these are not one-step quantities, so they
+measure what the method's errors do to the attractor.
+"""
+
+from __future__ import annotations
+
+import math
+import sys
+import time
+from typing import Any
+
+import numpy as np
+from numba import njit
+
+from bbdyn.benchmarking.fixed_step import fixed_step_one_step, fixed_step_run
+from bbdyn.benchmarking.timing import measure, single_thread
+from bbdyn.core.flat import flat_flight, flat_run, flat_run_count
+from bbdyn.core.plate import TWO_PI
+from bbdyn.core.status import IMPACT, OK, STICK, raise_for_status
+from bbdyn.params import Params
+from bbdyn.results import Result, make_meta
+
+__all__ = [
+    "CASE",
+    "QUICK",
+    "FULL",
+    "FlatBenchResult",
+    "compute",
+    "draw",
+    "table",
+    "start_states",
+    "exact_one_step",
+    "ivp_flight",
+    "one_step_errors",
+    "long_run_stats",
+]
+
+#: A chaotic case: at f = 82 Hz (Gamma = 2.71) and alpha = 0.8 the attractor is
+#: chaotic (nearby orbits separate by ~e^1.4 per impact) and sticks are rare
+#: (~3 per 1e5 events).  At the MODEL.md default alpha = 0.5 the attractors
+#: between 60 and 95 Hz are periodic stick-release cycles, not chaotic.
+#: The start is (phase, vrel) = (0.3 rad, 50 mm/s) followed by a transient.
+CASE = {"f": 82.0, "alpha": 0.8, "phase0": 0.3, "vrel0": 50.0, "transient": 10_000}
+
+QUICK: dict[str, Any] = {
+    "n_impacts": 40,
+    "fixed": [(1e-4, 1e-6), (1e-5, 1e-6), (1e-4, 1e-8)],
+    "ivp": [("RK45", "lab", 1e-6), ("DOP853", "plate", 1e-10)],
+    "long_run": 2_000,
+    "long_run_fixed": [(1e-4, 1e-6)],
+    "continuous_events": 200_000,
+    "repeats": 3,
+    "min_time": 0.02,
+}
+FULL: dict[str, Any] = {
+    "n_impacts": 300,
+    "fixed": [
+        (1e-4, 1e-6),
+        (1e-5, 1e-6),
+        (1e-6, 1e-6),
+        (1e-4, 1e-7),
+        (1e-4, 1e-8),
+        (1e-4, 1e-10),
+    ],
+    "ivp": [
+        ("RK45", "lab", 1e-3),
+        ("RK45", "lab", 1e-6),
+        ("RK45", "lab", 1e-9),
+        ("DOP853", "lab", 1e-6),
+        ("DOP853", "lab", 1e-10),
+        ("RK45", "plate", 1e-6),
+        ("RK45", "plate", 1e-9),
+        ("DOP853", "plate", 1e-6),
+        ("DOP853", "plate", 1e-10),
+        ("DOP853", "plate", 1e-13),
+    ],
+    "long_run": 100_000,
+    "long_run_fixed": [(1e-4, 1e-6), (1e-5, 1e-6)],
+    "continuous_events": 2_000_000,
+    "repeats": 5,
+    "min_time": 0.2,
+}
+
+
+def case_params() -> Params:
+    """Parameters of the benchmark case (MODEL.md defaults but f and alpha)."""
+    return Params(f=CASE["f"], alpha=CASE["alpha"])
+
+
+def _post_transient(kp) -> tuple[float, float, float, int]:
+    periods, phase, vrel, kind, _, status = flat_run_count(
+        0.0, CASE["phase0"], CASE["vrel0"], IMPACT, kp, CASE["transient"]
+    )
+    raise_for_status(status, "benchmark transient")
+    return periods, phase, vrel, kind
+
+
+def start_states(params: Params, n_impacts: int) -> dict[str, np.ndarray]:
+    """Float64 start states on the chaotic orbit and the one-step reference from each.
+
+    The reference trajectory (``reference_impacts``, from the state after the
+    transient) gives ``n_impacts`` start states ``(phase, vrel)``; the reference
+    is then computed again from each *rounded* state, one impact ahead, so that
+    a method's difference to it is its own one-step error.
+
+    Returns
+    -------
+    dict of arrays of shape (n_impacts,)
+        ``phase`` (rad), ``vrel`` (mm/s): start states; ``tau`` (s): reference
+        flight time; ``v`` (mm/s): reference absolute post-impact velocity.
+    """
+    from bbdyn.flat_reference import reference_impacts
+
+    _, phase, vrel, kind = _post_transient(params.kernel())
+    if kind != IMPACT:
+        raise ValueError("the benchmark case must start from an impact after its transient")
+    traj = reference_impacts(params, phase, vrel, n_impacts)
+    phases = np.concatenate(([phase], traj["phase"][:-1]))
+    vrels = np.concatenate(([vrel], traj["vrel"][:-1]))
+    tau = np.empty(n_impacts)
+    v = np.empty(n_impacts)
+    w = params.w
+    for i in range(n_impacts):
+        one = reference_impacts(params, float(phases[i]), float(vrels[i]), 1)
+        # t is absolute from t0 = phase / w; the difference is exact to ~1e-18 s.
+        tau[i] = one["t"][0] - phases[i] / w
+        v[i] = one["v"][0]
+    return {"phase": phases, "vrel": vrels, "tau": tau, "v": v}
+
+
+@njit(cache=True)
+def exact_one_step(phases, vrels, kp, out_tau, out_vrel_minus):
+    """``flat_flight`` from each start state in turn (in place); returns the first bad status."""
+    for i in range(phases.shape[0]):
+        tau, vm, status = flat_flight(phases[i], vrels[i], kp)
+        if status != OK:
+            return status
+        out_tau[i] = tau
+        out_vrel_minus[i] = vm
+    return OK
+
+
+def ivp_flight(kp, phase: float, vrel: float, method: str, frame: str, rtol: float):
+    """One flight with ``scipy.integrate.solve_ivp`` and a terminal event.
+
+    Parameters
+    ----------
+    kp : KernelParams
+    phase, vrel : float
+        Start phase (rad) and relative velocity (mm/s); local time starts at 0.
+    method : {"RK45", "DOP853"}
+    frame : {"lab", "plate"}
+        ``lab``: state (y, v) with y'' = -g and event y - y_p; ``plate``: state
+        (G, G') with G'' = -g - A w^2 sin(phase + w tau) and event G.
+    rtol : float
+        Relative tolerance; the absolute tolerance is ``rtol`` times the scales
+        (A mm, A w mm/s).
+
+    Returns
+    -------
+    (tau, vrel_minus): flight time (s) and relative velocity before impact (mm/s);
+    ``(inf, nan)`` if no event was found before the parabola falls below -A.
+    """
+    from scipy.integrate import solve_ivp
+
+    A, w, g = kp.A, kp.w, kp.g
+    aw2 = A * w * w
+    if frame == "lab":
+        y0 = [-A * math.sin(phase), vrel - A * w * math.cos(phase)]
+
+        def rhs(t, y):
+            return [y[1], -g]
+
+        def event(t, y):
+            return y[0] + A * math.sin(phase + w * t)
+
+    elif frame == "plate":
+        y0 = [0.0, vrel]
+
+        def rhs(t, y):
+            return [y[1], -g - aw2 * math.sin(phase + w * t)]
+
+        def event(t, y):
+            return y[0]
+
+    else:
+        raise ValueError(f"frame must be 'lab' or 'plate', got {frame!r}")
+    event.terminal = True
+    event.direction = -1
+    v_abs = vrel - A * w * math.cos(phase)
+    tau_max = (v_abs + math.sqrt(v_abs * v_abs + 2.0 * g * (A - A * math.sin(phase)))) / g
+    sol = solve_ivp(
+        rhs,
+        (0.0, 1.01 * tau_max),
+        y0,
+        method=method,
+        rtol=rtol,
+        atol=[rtol * A, rtol * A * w],
+        events=event,
+    )
+    if sol.t_events[0].size == 0:
+        return math.inf, math.nan
+    tau = float(sol.t_events[0][0])
+    rate = float(sol.y_events[0][0][1])
+    if frame == "lab":
+        rate += A * w * math.cos(phase + w * tau)  # v - u
+    return tau, rate
+
+
+def _post_impact_v(kp, phases, tau, vrel_minus):
+    """Absolute post-impact velocity v+ = -alpha vrel- + u (mm/s), MODEL.md impact law."""
+    return -kp.alpha * vrel_minus - kp.A * kp.w * np.cos(phases + kp.w * tau)
+
+
+def one_step_errors(kp, states, tau, vrel_minus) -> dict[str, float]:
+    """Max and median one-step errors of impact time (s) and post-impact velocity (mm/s)."""
+    dt = np.abs(tau - states["tau"])
+    dv = np.abs(_post_impact_v(kp, states["phase"], tau, vrel_minus) - states["v"])
+    dt = np.where(np.isfinite(dt), dt, np.inf)
+    dv = np.where(np.isfinite(dv), dv, np.inf)
+    return {
+        "max_time_error_s": float(dt.max()),
+        "median_time_error_s": float(np.median(dt)),
+        "max_velocity_error": float(dv.max()),
+        "median_velocity_error": float(np.median(dv)),
+    }
+
+
+def _bench_exact(kp, states, settings) -> list[dict[str, Any]]:
+    n = states["phase"].size
+    tau = np.empty(n)
+    vm = np.empty(n)
+    raise_for_status(exact_one_step(states["phase"], states["vrel"], kp, tau, vm), "exact")
+    errors = one_step_errors(kp, states, tau, vm)
+    # A flight takes well under a microsecond: time the start states repeated to
+    # _EXACT_TILE flights so that the Python call costs nothing in comparison.
+    reps = -(-_EXACT_TILE // n)
+    phases, vrels = np.tile(states["phase"], reps), np.tile(states["vrel"], reps)
+    tau_t, vm_t = np.empty(n * reps), np.empty(n * reps)
+
+    def run():
+        raise_for_status(exact_one_step(phases, vrels, kp, tau_t, vm_t), "exact")
+
+    timing = measure(run, repeats=settings["repeats"], min_time=settings["min_time"])
+    row = {"method": "exact", "setting": "default (ROOT_STEP_REL = 2 eps)"}
+    row.update(impacts_per_s=timing.per_second(n * reps), **errors)
+
+    periods, phase, vrel, kind = _post_transient(kp)
+    n_events = settings["continuous_events"]
+
+    def run_continuous():
+        status = flat_run_count(periods, phase, vrel, kind, kp, n_events)[5]
+        raise_for_status(status, "exact continuous run")
+
+    timing = measure(run_continuous, repeats=settings["repeats"], min_time=settings["min_time"])
+    continuous = {
+        "method": "exact",
+        "setting": f"continuous run, {n_events} events (flat_run_count)",
+        "impacts_per_s": timing.per_second(n_events),
+        "max_time_error_s": row["max_time_error_s"],
+        "max_velocity_error": row["max_velocity_error"],
+    }
+    return [row, continuous]
+
+
+def _bench_fixed(kp, states, settings) -> list[dict[str, Any]]:
+    n = states["phase"].size
+    rows = []
+    for dt, dt_min in settings["fixed"]:
+        tau = np.empty(n)
+        vm = np.empty(n)
+        evals = [0]
+
+        def run(dt=dt, dt_min=dt_min, tau=tau, vm=vm, evals=evals):
+            evals[0], status = fixed_step_one_step(
+                states["phase"], states["vrel"], dt, dt_min, kp, tau, vm
+            )
+            raise_for_status(status, "fixed-step")
+
+        timing = measure(run, repeats=settings["repeats"], min_time=settings["min_time"])
+        row = {"method": "fixed_step", "setting": f"dt={dt:g} s, dt_min={dt_min:g} s"}
+        row.update(dt=dt, dt_min=dt_min, gap_evals_per_impact=evals[0] / n)
+        row.update(impacts_per_s=timing.per_second(n), **one_step_errors(kp, states, tau, vm))
+        rows.append(row)
+    return rows
+
+
+def _bench_ivp(kp, states, settings) -> list[dict[str, Any]]:
+    n = states["phase"].size
+    rows = []
+    for method, frame, rtol in settings["ivp"]:
+        tau = np.empty(n)
+        vm = np.empty(n)
+
+        def run(method=method, frame=frame, rtol=rtol, tau=tau, vm=vm):
+            for i in range(n):
+                tau[i], vm[i] = ivp_flight(
+                    kp, float(states["phase"][i]), float(states["vrel"][i]), method, frame, rtol
+                )
+
+        # solve_ivp is slow: each repeat is one pass over the flights.
+        timing = measure(run, repeats=settings["repeats"], min_time=0.0)
+        row = {"method": "solve_ivp", "setting": f"{method} {frame} frame, rtol={rtol:g}"}
+        row.update(ivp_method=method, frame=frame, rtol=rtol)
+        row.update(impacts_per_s=timing.per_second(n), **one_step_errors(kp, states, tau, vm))
+        rows.append(row)
+    return rows
+
+
+#: Number of flights per timed call of the exact one-step loop.
+_EXACT_TILE = 10_000
+
+#: Batches for the batch-means standard error of long-run averages.
+_N_BATCHES = 50
+
+
+def _moments(v: np.ndarray, n_batches: int = _N_BATCHES) -> dict[str, float]:
+    """Mean and variance of ``v`` with a batch-means standard error of the mean."""
+    batches = np.array_split(v, n_batches)
+    means = np.array([b.mean() for b in batches])
+    return {
+        "mean_v": float(v.mean()),
+        "var_v": float(v.var()),
+        "stderr_mean_v": float(means.std(ddof=1) / math.sqrt(n_batches)),
+    }
+
+
+def _distinct(phase: np.ndarray, tol: float = 1e-9) -> int:
+    """Number of impact phases that differ by more than ``tol`` rad."""
+    s = np.sort(phase)
+    return int(1 + np.count_nonzero(np.diff(s) > tol))
+
+
+def long_run_stats(params: Params, n_impacts: int, fixed) -> list[dict[str, Any]]:
+    """Long-run statistics of the chaotic case: exact map vs fixed-step methods.
+
+    For each method: the number of distinct impact phases (to 1e-9 rad), mean
+    and variance of the absolute post-impact velocity (mm/s) over ``n_impacts``
+    impacts after the transient, the batch-means standard error of the mean,
+    and the chattering events (exact map: sticks; fixed step: micro-bounces,
+    flights of at most 2 ``dt_min``).
+    """
+    kp = params.kernel()
+    periods, phase, vrel, kind = _post_transient(kp)
+    out = []
+    # The exact map also records stick and release events; run until n_impacts impacts.
+    n_events = n_impacts + n_impacts // 100 + 10
+    arrays = [np.empty(n_events) for _ in range(3)] + [np.empty(n_events, dtype=np.int64)]
+    n_done, status = flat_run(periods, phase, vrel, kind, kp, *arrays)
+    raise_for_status(status, "long run (exact)")
+    ev_phase, ev_vrel, ev_kind = arrays[1][:n_done], arrays[2][:n_done], arrays[3][:n_done]
+    impacts = np.flatnonzero(ev_kind == IMPACT)[:n_impacts]
+    last = impacts[-1] + 1
+    ph = ev_phase[impacts]
+    v = ev_vrel[impacts] - kp.A * kp.w * np.cos(ph)
+    row = {"method": "exact", "setting": "default", "n_impacts": int(impacts.size)}
+    row.update(distinct_phases=_distinct(ph), **_moments(v))
+    row.update(chatter_events=int(np.count_nonzero(ev_kind[:last] == STICK)))
+    out.append(row)
+    for dt, dt_min in fixed:
+        per, ph, vr = (np.empty(n_impacts) for _ in range(3))
+        n_done, status = fixed_step_run(periods, phase, vrel, dt, dt_min, kp, per, ph, vr)
+        raise_for_status(status, "long run (fixed step)")
+        flight = np.diff(np.concatenate(([periods], per)) * TWO_PI + np.concatenate(([phase], ph)))
+        flight /= kp.w
+        v = vr - kp.A * kp.w * np.cos(ph)
+        row = {"method": "fixed_step", "setting": f"dt={dt:g} s, dt_min={dt_min:g} s"}
+        row.update(n_impacts=int(n_done), distinct_phases=_distinct(ph), **_moments(v))
+        row.update(micro_bounces=int(np.count_nonzero(flight <= 2.0 * dt_min)))
+        out.append(row)
+    return out
+
+
+class FlatBenchResult(Result):
+    """Rows of the flat-ball work-precision benchmark (B2) and long-run statistics.
+
+    ``meta["rows"]``: one dict per method and setting (``method``, ``setting``,
+    ``impacts_per_s``, ``max_time_error_s`` (s), ``max_velocity_error`` (mm/s),
+    ``cost_ratio_to_exact``, ...); ``meta["long_run"]``: see ``long_run_stats``.
+    The arrays repeat the numeric columns in row order.
+    """
+
+    kind = "bench_flat"
+
+    def plot(self, ax=None, which: str = "time"):
+        """Work-precision: max one-step error (``which`` = time or velocity) vs cost per impact."""
+        import matplotlib.pyplot as plt
+
+        key = {"time": "max_time_error_s", "velocity": "max_velocity_error"}[which]
+        if ax is None:
+            _, ax = plt.subplots()
+        # A zero error (exact in float64) is drawn at the floor, with an open marker.
+        floor = 1e-18 if which == "time" else 1e-15
+        markers = {"exact": "o", "fixed_step": "s", "solve_ivp": "^"}
+        for method, marker in markers.items():
+            rows = [
+                r
+                for r in self.meta["rows"]
+                if r["method"] == method and "continuous" not in r["setting"]
+            ]
+            if not rows:
+                continue
+            cost = np.array([1e6 / r["impacts_per_s"] for r in rows])
+            err = np.array([r[key] for r in rows])
+            ax.loglog(cost, np.maximum(err, floor), marker, label=method.replace("_", " "))
+            for c, e, r in zip(cost, err, rows, strict=True):
+                ax.annotate(
+                    _short(r),
+                    (c, max(e, floor)),
+                    fontsize=6,
+                    xytext=(3, 2),
+                    textcoords="offset points",
+                )
+        ax.set_xlabel("cost per impact (µs, single core)")
+        ax.set_ylabel(
+            "max one-step error of impact time (s)"
+            if which == "time"
+            else "max one-step error of v+ (mm/s)"
+        )
+        ax.legend(fontsize=8)
+        return ax
+
+
+def _short(row: dict[str, Any]) -> str:
+    if row["method"] == "fixed_step":
+        return f"{row['dt']:g}/{row['dt_min']:g}"
+    if row["method"] == "solve_ivp":
+        return f"{row['ivp_method']} {row['frame'][0]} {row['rtol']:g}"
+    return ""
+
+
+def compute(settings: dict[str, Any], *, log=None) -> FlatBenchResult:
+    """Run the benchmark with ``settings`` (``QUICK``, ``FULL`` or a modified copy).
+
+    ``log`` is a callable for progress lines (default: stderr).
+    """
+    log = log or (lambda msg: print(msg, file=sys.stderr))
+    start = time.perf_counter()
+    single_thread()
+    params = case_params()
+    kp = params.kernel()
+    n = int(settings["n_impacts"])
+    if n < 1:
+        raise ValueError(f"n_impacts must be >= 1, got {n}")
+    if int(settings["long_run"]) < _N_BATCHES:
+        raise ValueError(f"long_run must be >= {_N_BATCHES} impacts, got {settings['long_run']}")
+    log(f"bench flat: mpmath reference for {n} impacts")
+    states = start_states(params, n)
+    log("bench flat: exact map")
+    rows = _bench_exact(kp, states, settings)
+    log("bench flat: fixed step")
+    rows += _bench_fixed(kp, states, settings)
+    log("bench flat: solve_ivp")
+    rows += _bench_ivp(kp, states, settings)
+    exact_speed = rows[0]["impacts_per_s"]
+    for row in rows:
+        row["cost_ratio_to_exact"] = exact_speed / row["impacts_per_s"]
+    log(f"bench flat: long run of {settings['long_run']} impacts")
+    long_run = long_run_stats(params, int(settings["long_run"]), settings["long_run_fixed"])
+    keys = ("impacts_per_s", "max_time_error_s", "max_velocity_error", "cost_ratio_to_exact")
+    arrays = {k: np.array([r[k] for r in rows]) for k in keys}
+    meta = make_meta(
+        params,
+        wall_s=time.perf_counter() - start,
+        case=CASE,
+        settings=settings,
+        rows=rows,
+        long_run=long_run,
+        errors="one-step: every method restarts from the same float64 state on the orbit",
+    )
+    return FlatBenchResult(arrays, meta)
+
+
+def draw(result: FlatBenchResult):
+    """Figure of the benchmark: time and velocity work-precision panels."""
+    import matplotlib.pyplot as plt
+
+    fig, axes = plt.subplots(1, 2, figsize=(11, 4.5))
+    result.plot(axes[0], which="time")
+    result.plot(axes[1], which="velocity")
+    case = result.meta["case"]
+    fig.suptitle(f"flat ball work-precision (f = {case['f']} Hz, alpha = {case['alpha']})")
+    fig.tight_layout()
+    return fig
+
+
+def table(result: FlatBenchResult) -> str:
+    """The rows as a plain-text table, then the long-run statistics."""
+    head = f"{'method':<11} {'setting':<44} {'impacts/s':>10} {'max dt (s)':>10} "
+    head += f"{'max dv (mm/s)':>13} {'cost/exact':>10}"
+    lines = [head]
+    for r in result.meta["rows"]:
+        lines.append(
+            f"{r['method']:<11} {r['setting']:<44} {r['impacts_per_s']:>10.3g} "
+            f"{r['max_time_error_s']:>10.2e} {r['max_velocity_error']:>13.2e} "
+            f"{r['cost_ratio_to_exact']:>10.3g}"
+        )
+    lines.append("")
+    lines.append(f"long run ({result.meta['case']['f']} Hz, alpha {result.meta['case']['alpha']}):")
+    for r in result.meta["long_run"]:
+        extra = r.get("chatter_events", r.get("micro_bounces"))
+        label = "sticks" if r["method"] == "exact" else "micro-bounces"
+        lines.append(
+            f"{r['method']:<11} {r['setting']:<28} impacts {r['n_impacts']:>7} "
+            f"distinct phases {r['distinct_phases']:>7} mean v+ {r['mean_v']:.4f} "
+            f"+- {r['stderr_mean_v']:.4f} var {r['var_v']:.2f} {label} {extra}"
+        )
+    return "\n".join(lines)
