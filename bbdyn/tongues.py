@@ -50,6 +50,7 @@ __all__ = [
     "gamma_lo_numeric",
     "k1_cos_phase",
     "k1_orbit",
+    "k1_orbit_numeric",
     "k1_trace",
     "k1_velocity",
     "map_jacobian",
@@ -72,7 +73,9 @@ def tongue_gamma_hi(k, alpha, xp=math):
     ``Gamma_hi = sqrt(Gamma_lo^2 + [2 (1 + alpha^2) / (1 + alpha)^2]^2)``, which is
     MODEL.md's ``pi sqrt([k (1-alpha)/(1+alpha)]^2 + [2 (1+alpha^2) / (pi (1+alpha)^2)]^2)``.
     """
-    return xp.sqrt(tongue_gamma_lo(k, alpha, xp) ** 2 + (2 * (1 + alpha**2) / (1 + alpha) ** 2) ** 2)
+    return xp.sqrt(
+        tongue_gamma_lo(k, alpha, xp) ** 2 + (2 * (1 + alpha**2) / (1 + alpha) ** 2) ** 2
+    )
 
 
 def k1_cos_phase(k, gamma, alpha, xp=math):
@@ -217,7 +220,9 @@ def map_jacobian(params: Params, phase: float, vrel: float) -> np.ndarray:
     phase, vrel = _check_state(phase, vrel)
     _, _, jac, status = flat_map_jacobian(phase, vrel, params.kernel())
     if status != OK:
-        raise OrbitNotFound(f"map_jacobian at phase {phase}, vrel {vrel}: {STATUS_MESSAGES[status]}")
+        raise OrbitNotFound(
+            f"map_jacobian at phase {phase}, vrel {vrel}: {STATUS_MESSAGES[status]}"
+        )
     return jac
 
 
@@ -320,9 +325,7 @@ def _newton(fun, z, scale, max_step, what):
     )
 
 
-def find_periodic_orbit(
-    params: Params, k: int, m: int, phase: float, vrel: float
-) -> PeriodicOrbit:
+def find_periodic_orbit(params: Params, k: int, m: int, phase: float, vrel: float) -> PeriodicOrbit:
     """Newton solve for a k/m orbit of the exact map (k periods, m impacts).
 
     Unknowns are the first impact ``(phase, vrel)``; the residual is
@@ -432,8 +435,11 @@ def gamma_hi_numeric(k: int, alpha: float, A: float = 0.1, g: float = 9800.0) ->
     last = {}
 
     def det_j_plus_i(gamma):
-        orbit = k1_orbit_numeric(k, gamma, alpha, A, g, last.get("guess"))
-        last["guess"] = (orbit["phase"][0], orbit["vrel"][0])
+        # continuation in the dimensionless velocity vrel w / g, which varies slowly
+        w = TWO_PI * frequency_at_gamma(gamma, A, g)
+        guess = None if "V" not in last else (last["phase"], last["V"] * g / w)
+        orbit = k1_orbit_numeric(k, gamma, alpha, A, g, guess)
+        last.update(phase=orbit["phase"][0], V=orbit["vrel"][0] * w / g)
         return float(np.linalg.det(orbit["jacobian"] + np.eye(2)))
 
     a = lo + 0.5 * step
@@ -517,7 +523,15 @@ class TongueTable(Result):
     """
 
     kind = "flat_tongues"
-    FIELDS = ("k", "gamma_lo", "gamma_hi", "gamma_hi_numeric", "gamma_lo_numeric", "f_lo_hz", "f_hi_hz")
+    FIELDS = (
+        "k",
+        "gamma_lo",
+        "gamma_hi",
+        "gamma_hi_numeric",
+        "gamma_lo_numeric",
+        "f_lo_hz",
+        "f_hi_hz",
+    )
 
     def rows(self) -> list[dict]:
         """One dict per k (JSON-ready: NaN becomes None)."""
