@@ -53,3 +53,34 @@ FD_AGREE_REL = 1.0e3 * EPS ** (2.0 / 3.0)
 #: Relative tolerance of the Brent root finders for tongue boundaries (scipy's
 #: brentq requires rtol >= 4 EPS).
 BOUNDARY_RTOL = 4.0 * EPS
+
+# ---- billiard (bbdyn.core.billiard) -----------------------------------------------
+
+#: A contact within this fraction of d of a wedge is put on the wedge (rounding of
+#: the crossing time leaves the contact point a few ulp of d away from it).
+WEDGE_TOL = 4.0 * EPS
+
+#: Reflections at one wedge contact before the particle is taken to have collapsed
+#: into the wedge; the wedge is so obtuse that one or two are the rule.
+WEDGE_MAX_REFLECTIONS = 16
+
+#: Gap of the billiard checked by the tests: never below -GAP_REL_TOL times the
+#: scale of the terms of the gap (|vyrel| tau + g tau^2 + A + h), a few ulp each.
+GAP_REL_TOL = 64.0 * EPS
+
+#: Relative rounding allowance of a gap evaluated from stored events: the gap at
+#: a recorded impact is zero to IMPACT_GAP_REL times the sum of the magnitudes
+#: of its terms (|v tau|, g tau^2 / 2, 2 A, |G'| / f for the phase rounding).
+IMPACT_GAP_REL = 64.0 * EPS
+
+# ---- random walk and Green-Kubo (bbdyn.approx) ---------------------------------------
+
+#: The two routes of the truncated Green-Kubo series (jump correlations and
+#: symbol-sequence probabilities) are algebraically equal on +-1 jumps and differ
+#: by rounding only: a mean over particles of up to 2^10 rounded probabilities per
+#: lag.  Tolerance per unit of the scale D_0 (2 n + 1) of the first n terms.
+GK_ROUTES_REL = 64.0 * EPS
+
+#: A closed form evaluated by two different float expressions (library code and
+#: a lambdified sympy derivation): a handful of roundings in products and sqrt.
+CLOSED_FORM_REL = 16.0 * EPS

@@ -1,0 +1,422 @@
+"""Exact event-driven dynamics of the bouncing ball billiard (MODEL.md section 2).
+
+State after an event: time as ``(periods, phase)`` (``phase = w t mod 2 pi``);
+position as ``(tile, xi)`` (``tile`` an integer-valued float, ``xi = x - x_c`` in
+[-d/2, d/2]); the particle is on the floor, ``y = y_p(t) + b(xi)`` (``floor.py``);
+``vx`` its horizontal velocity and ``vyrel = vy - u(t)`` its vertical velocity
+relative to the floor (relative velocities keep tiny bounces accurate, see
+``flat.py``); ``kind`` in {IMPACT, STICK, RELEASE}.
+
+The ladder: ``flight_gap`` (gap at a time) -> ``billiard_flight`` (first contact)
+-> ``collide`` (restitution, wedge rule, chattering) -> ``billiard_event``.
+
+Gap.  After an event at phase theta and ``xi0``, with ``tau`` the time since it,
+
+    G(tau) = vyrel tau - g tau^2/2 - rise(tau) - [b(xi(tau)) - b(xi0)]      (mm)
+
+with ``xi(tau) = xi0 + vx tau`` shifted by -+d at each tile crossing (crossing
+times are analytic).  Within one tile ``-G'' = g + A w^2 sin(.) + b'' vx^2
+<= g + A w^2 = M`` because ``b'' < 0``: the flat ball's Taylor lower bound
+``G(tau + s) >= G + G' s - M s^2/2`` holds up to the next crossing.  At a
+crossing ``G`` is continuous but ``G'`` drops by ``d |vx| / c0`` (the wedge is a
+valley: a concave kink), so a step is capped at the crossing and the bound
+restarted there with the right derivative.  The floor is never above
+``y_p + h``, so the *envelope gap* ``G_env = G - (h - b(xi))`` (the floor
+replaced by the plane ``y_p + h``) is a lower bound of ``G`` whose second
+derivative is also bounded by M and which has no kinks: its safe steps may
+jump over many tiles.  Each step is the larger of the envelope step and the
+tile step capped at the crossing.  The interval in which the particle is
+above ``A + h`` (the floor's highest point ever) is skipped analytically.
+
+Guarantee: every step ends at a time before which a lower bound of ``G`` is
+positive, so the first contact is never skipped, whatever the number of tiles
+crossed; the search stops when the tile step is below ``ROOT_STEP_REL`` times
+the flight time (the contact time is then known to a few ulp) or when rounding
+makes ``G <= 0``.
+"""
+
+import math
+
+from numba import njit
+
+from bbdyn.core.flat import flat_gap, safe_step
+from bbdyn.core.floor import arc_root, bounce, floor_drop
+from bbdyn.core.plate import advance_phase, release_window
+from bbdyn.core.status import (
+    BAD_STATE,
+    IMPACT,
+    NON_FINITE,
+    OK,
+    RELEASE,
+    ROOT_NOT_CONVERGED,
+    STICK,
+    STUCK_FOREVER,
+)
+from bbdyn.core.tolerances import (
+    CHATTER_REL_TOL,
+    ROOT_MAX_STEPS,
+    ROOT_STEP_REL,
+    WEDGE_MAX_REFLECTIONS,
+    WEDGE_TOL,
+)
+
+
+@njit(cache=True, inline="always")
+def crossing_time(xi0, k, vx, d):
+    """Time (s) at which a flight from ``xi0`` leaves tile offset ``k``; inf for vx = 0."""
+    if vx > 0.0:
+        return ((k + 0.5) * d - xi0) / vx
+    if vx < 0.0:
+        return ((k - 0.5) * d - xi0) / vx
+    return math.inf
+
+
+@njit(cache=True, inline="always")
+def tile_offset(xi0, vx, tau, d):
+    """Tile offset (integer-valued float) of the point reached at ``tau`` from ``xi0``."""
+    return math.floor((xi0 + 0.5 * d + vx * tau) / d)
+
+
+@njit(cache=True, inline="always")
+def segment_gap(tau, k, phase_sin, phase_cos, xi0, S0, vx, vyrel, kp):
+    """Gap and rates at ``tau`` with the particle over tile offset ``k``.
+
+    Returns ``(G, G', G_env, F', xi)``: the gap to the arc (mm), its right
+    derivative on tile ``k`` (mm/s), the envelope gap to the plane ``y_p + h``,
+    its derivative ``F' = vyrel - g tau - dvel(tau)`` (also the vertical velocity
+    relative to the floor) and the local coordinate reached (clamped to the tile).
+    """
+    half = 0.5 * kp.d
+    F, Fp = flat_gap(vyrel, kp.g, kp.A, kp.w, phase_sin, phase_cos, tau)
+    dx = vx * tau - k * kp.d
+    xi = min(max(xi0 + dx, -half), half)
+    S = arc_root(xi, kp)
+    G = F + floor_drop(dx, xi0, xi, S0, S)
+    Gp = Fp + vx * xi / S
+    G_env = F - xi0 * xi0 / (kp.R + S0)  # h - b(xi0) = xi0^2 / (R + S0)
+    return G, Gp, G_env, Fp, xi
+
+
+@njit(cache=True)
+def flight_gap(phase, xi0, vx, vyrel, tau, kp):
+    """Gap (mm) between the particle and the floor under it, ``tau`` s after an event.
+
+    Independent of the search's bookkeeping (the tile is found from the
+    position), for checks: ``G >= 0`` during a flight, ``G = 0`` at its end.
+    """
+    k = tile_offset(xi0, vx, tau, kp.d)
+    S0 = arc_root(xi0, kp)
+    G = segment_gap(tau, k, math.sin(phase), math.cos(phase), xi0, S0, vx, vyrel, kp)[0]
+    return G
+
+
+@njit(cache=True)
+def billiard_flight(phase, xi0, vx, vyrel, kp):
+    """First contact with the floor after an event (see the module docstring).
+
+    Parameters
+    ----------
+    phase : float
+        Phase w t (rad) of the event that starts the flight.
+    xi0, vx, vyrel : float
+        Local coordinate (mm) and velocity relative to the floor (mm/s) just
+        after it; the velocity must leave the arc (``V . n > 0``), or may be
+        tangent (``V . n = 0``) inside the release window where the floor
+        accelerates downward faster than g.
+    kp : KernelParams
+
+    Returns
+    -------
+    tau : float
+        Flight time (s).
+    k : float
+        Tile offset of the contact (integer-valued).
+    xi : float
+        Local coordinate of the contact on tile ``tile + k`` (mm).
+    vyrel_minus : float
+        Vertical velocity relative to the floor just before the contact (mm/s).
+    n_steps : int
+        Safe steps taken (a cost measure).
+    status : int
+        ``OK``, ``BAD_STATE`` or ``ROOT_NOT_CONVERGED``.
+    """
+    d, R, w, g, M = kp.d, kp.R, kp.w, kp.g, kp.curv_bound
+    half = 0.5 * d
+    k_base = 0.0
+    # A particle on a wedge moving away from its tile starts on the neighbour.
+    if vx > 0.0 and xi0 >= half:
+        xi0 = -half
+        k_base = 1.0
+    elif vx < 0.0 and xi0 <= -half:
+        xi0 = half
+        k_base = -1.0
+    direction = 1.0 if vx > 0.0 else -1.0
+    S0 = arc_root(xi0, kp)
+    sn = math.sin(phase)
+    cs = math.cos(phase)
+
+    tau = 0.0
+    k = 0.0
+    G = 0.0
+    Gp = vyrel + vx * xi0 / S0  # = R V.n / S0
+    lift = xi0 * xi0 / (R + S0)  # h - b(xi0)
+    G_env = -lift
+    G_envp = vyrel
+    xi = xi0
+    tc = crossing_time(xi0, k, vx, d)
+
+    theta_r, theta_e = release_window(kp.gamma)
+    if theta_r <= phase < theta_e:
+        # G'' > 0 on a tile until theta_e and G(0) = 0, G'(0) >= 0: no contact before
+        # theta_e or the first tile crossing, whichever comes first.
+        if Gp < 0.0:
+            return 0.0, k_base, xi0, vyrel, 0, BAD_STATE
+        tau = min((theta_e - phase) / w, tc)
+        if tau == tc:
+            k += direction
+        G, Gp, G_env, G_envp, xi = segment_gap(tau, k, sn, cs, xi0, S0, vx, vyrel, kp)
+    elif not Gp > 0.0:
+        return 0.0, k_base, xi0, vyrel, 0, BAD_STATE
+    tc = max(crossing_time(xi0, k, vx, d), tau)
+
+    # Interval in which the particle is above A + h, the floor's highest point ever.
+    v_abs = vyrel - kp.A * w * cs
+    h_above = kp.A * (1.0 + sn) + lift
+    tau_up = math.inf
+    tau_down = -math.inf
+    disc = v_abs * v_abs - 2.0 * g * h_above
+    if v_abs > 0.0 and disc > 0.0:
+        tau_down = (v_abs + math.sqrt(disc)) / g
+        tau_up = 2.0 * h_above / (g * tau_down)
+
+    for n in range(ROOT_MAX_STEPS):
+        if tau_up < tau < tau_down:
+            tau = tau_down
+            k = tile_offset(xi0, vx, tau, d)
+            G, Gp, G_env, G_envp, xi = segment_gap(tau, k, sn, cs, xi0, S0, vx, vyrel, kp)
+            tc = max(crossing_time(xi0, k, vx, d), tau)
+        if G <= 0.0 and tau > 0.0:
+            return tau, k + k_base, xi, G_envp, n, OK
+        s_tile = safe_step(G, Gp, M)
+        if s_tile <= ROOT_STEP_REL * tau:
+            return tau, k + k_base, xi, G_envp, n, OK
+        s_env = safe_step(G_env, G_envp, M) if G_env > 0.0 else 0.0
+        room = tc - tau
+        if s_env > min(s_tile, room):
+            tau += s_env
+            k = tile_offset(xi0, vx, tau, d)
+        elif s_tile >= room:
+            tau = tc
+            k += direction
+        else:
+            tau += s_tile
+        G, Gp, G_env, G_envp, xi = segment_gap(tau, k, sn, cs, xi0, S0, vx, vyrel, kp)
+        tc = max(crossing_time(xi0, k, vx, d), tau)
+    return tau, k + k_base, xi, G_envp, ROOT_MAX_STEPS, ROOT_NOT_CONVERGED
+
+
+@njit(cache=True, inline="always")
+def chatter_sum(phase, xi, S, vn, vt, g_eff, g_n, kp):
+    """Closed-form sum of a chattering sequence on an arc.
+
+    After an impact with small normal velocity ``vn`` (mm/s) the particle hops
+    in the effective normal gravity ``g_n = (g_eff S - vt^2) / R`` (the floor's
+    acceleration along the normal, minus the centrifugal term of the convex
+    arc).  Flights ``tau_k = tau_0 alpha^k``, ``tau_0 = 2 vn / g_n``, sum to
+    ``tau_inf = tau_0 / (1 - alpha)``.  The tangential velocity is multiplied by
+    beta at each bounce and accelerated by ``g_t = g_eff xi / R`` in between, so
+    the drift along the arc is
+
+        ds = vt tau_0 / (1 - alpha beta)
+             + g_t tau_0^2 [alpha beta / ((1 - alpha^2)(1 - alpha beta)) + 1 / (2 (1 - alpha^2))]
+
+    and the tangential velocity tends to zero.  The neglected variation of
+    ``g_n`` over the sequence (time: at most ``A w^3 |cos| + A w^4 tau_inf``;
+    the centrifugal term: ``vt^2 / R``; the turn of the normal: ``g_eff |ds| / R``)
+    changes ``tau_inf`` by about ``dg tau_inf^2 / g_n``; the sum is accepted only
+    when that is below ``CHATTER_REL_TOL`` periods.
+
+    Returns ``(tau_inf, ds)``; ``tau_inf = inf`` when not accepted, for
+    ``alpha = 1`` (no accumulation) and for ``beta = 1`` (sliding, not modelled).
+    """
+    A, w, alpha, beta, R = kp.A, kp.w, kp.alpha, kp.beta, kp.R
+    if alpha >= 1.0 or beta >= 1.0:
+        return math.inf, 0.0
+    tau0 = 2.0 * vn / g_n
+    tau_inf = tau0 / (1.0 - alpha)
+    aw3 = A * w * w * w
+    if aw3 * tau_inf >= 0.5 * g_eff:
+        return math.inf, 0.0
+    ab = alpha * beta
+    g_t = g_eff * xi / R
+    one_a2 = 1.0 - alpha * alpha
+    ds = vt * tau0 / (1.0 - ab) + g_t * tau0 * tau0 * (ab / (one_a2 * (1.0 - ab)) + 0.5 / one_a2)
+    dg = aw3 * abs(math.cos(phase)) + aw3 * w * tau_inf + (vt * vt + g_eff * abs(ds)) / R
+    if dg * tau_inf * tau_inf > CHATTER_REL_TOL * kp.period * g_n:
+        return math.inf, 0.0
+    return tau_inf, ds
+
+
+@njit(cache=True, inline="always")
+def wedge_reflect(tile, xi, vx, vy, vn, vt, kp):
+    """Wedge rule: reflect on the neighbouring arc while the velocity points into it.
+
+    A contact at a wedge (``xi = +-d/2`` after snapping) was resolved with the
+    normal of the arc the particle was over.  If the new velocity points into
+    the neighbouring arc, the particle hits it at once, at the same point and
+    time: reflect there too, and repeat.  The wedge is very obtuse (its tangents
+    differ by 2 asin(d/2R)), so this ends after one or two reflections; after
+    ``WEDGE_MAX_REFLECTIONS`` the particle is taken to have collapsed into the
+    wedge (returned with ``ok = False``).
+
+    Returns ``(tile, xi, vx, vy, vn, vt, ok)``.
+    """
+    half = 0.5 * kp.d
+    for _ in range(WEDGE_MAX_REFLECTIONS):
+        if xi >= half and vx > 0.0 and (vy * kp.c0 - vx * half) < 0.0:
+            tile += 1.0
+            xi = -half
+        elif xi <= -half and vx < 0.0 and (vy * kp.c0 + vx * half) < 0.0:
+            tile -= 1.0
+            xi = half
+        else:
+            return tile, xi, vx, vy, vn, vt, True
+        vx, vy, vn, vt = bounce(xi, vx, vy, kp)
+    return tile, xi, vx, vy, vn, vt, False
+
+
+@njit(cache=True)
+def collide(periods, phase, tile, xi, vx, vyrel, kp):
+    """Apply the collision at ``(tile, xi)`` and decide whether chattering ends in a stick.
+
+    A contact within ``WEDGE_TOL * d`` of a wedge is put on the wedge and
+    treated by ``wedge_reflect``.  Returns the event state
+    ``(periods, phase, tile, xi, vx, vyrel, kind, status)``.
+    """
+    half = 0.5 * kp.d
+    if xi >= half - WEDGE_TOL * kp.d:
+        xi = half
+    elif xi <= -half + WEDGE_TOL * kp.d:
+        xi = -half
+    vx, vyrel, vn, vt = bounce(xi, vx, vyrel, kp)
+    tile, xi, vx, vyrel, vn, vt, ok = wedge_reflect(tile, xi, vx, vyrel, vn, vt, kp)
+    if not ok:
+        return periods, phase, tile, xi, 0.0, 0.0, STICK, OK
+    if not (math.isfinite(vx) and math.isfinite(vyrel)):
+        return periods, phase, tile, xi, vx, vyrel, IMPACT, NON_FINITE
+    g_eff = kp.g + kp.A * kp.w * kp.w * math.sin(phase)
+    if g_eff > 0.0 and kp.beta < 1.0:
+        S = arc_root(xi, kp)
+        g_n = (g_eff * S - vt * vt) / kp.R
+        if g_n > 0.0:
+            if vn == 0.0:
+                return periods, phase, tile, xi, 0.0, 0.0, STICK, OK
+            tau_inf, ds = chatter_sum(phase, xi, S, vn, vt, g_eff, g_n, kp)
+            if tau_inf < math.inf:
+                # Rotate the contact point by the angle ds / R along the arc; a
+                # drift past the wedge ends in the wedge (it is below 1e-9 mm).
+                c = math.cos(ds / kp.R)
+                s = math.sin(ds / kp.R)
+                xi = min(max(xi * c + S * s, -half), half)
+                periods, phase = advance_phase(periods, phase, kp.w * tau_inf)
+                return periods, phase, tile, xi, 0.0, 0.0, STICK, OK
+    return periods, phase, tile, xi, vx, vyrel, IMPACT, OK
+
+
+@njit(cache=True)
+def billiard_event(periods, phase, tile, xi, vx, vyrel, kind, kp):
+    """Advance the billiard from one event to the next (MODEL.md section 2).
+
+    Parameters
+    ----------
+    periods, phase : float
+        Time of the current event: whole driving periods and phase w t mod 2 pi (rad).
+    tile, xi : float
+        Tile index (integer-valued) and local coordinate (mm) of the particle, on the floor.
+    vx, vyrel : float
+        Velocity relative to the floor just after the event (mm/s); 0, 0 for STICK.
+    kind : int
+        IMPACT, STICK or RELEASE.
+    kp : KernelParams
+
+    Returns
+    -------
+    (periods, phase, tile, xi, vx, vyrel, kind, status) of the next event.
+    A stuck particle is released at ``theta_r = pi + asin(1/Gamma)`` with the
+    floor's velocity; for Gamma <= 1 the state is returned unchanged with
+    ``STUCK_FOREVER``.
+
+    Examples
+    --------
+    >>> from bbdyn import Params
+    >>> kp = Params(f=58.0).kernel()
+    >>> ev = billiard_event(0.0, 0.0, 0.0, 0.3, 10.0, 50.0, IMPACT, kp)
+    >>> ev[-1] == OK and ev[0] + ev[1] > 0.0
+    True
+    """
+    if kind == STICK:
+        theta_r, _ = release_window(kp.gamma)
+        if theta_r < 0.0:
+            return periods, phase, tile, xi, 0.0, 0.0, STICK, STUCK_FOREVER
+        if phase <= theta_r:
+            return periods, theta_r, tile, xi, 0.0, 0.0, RELEASE, OK
+        return periods + 1.0, theta_r, tile, xi, 0.0, 0.0, RELEASE, OK
+
+    tau, k, xi_c, vyrel_minus, _, status = billiard_flight(phase, xi, vx, vyrel, kp)
+    if status != OK:
+        return periods, phase, tile, xi, vx, vyrel, kind, status
+    periods, phase = advance_phase(periods, phase, kp.w * tau)
+    return collide(periods, phase, tile + k, xi_c, vx, vyrel_minus, kp)
+
+
+@njit(cache=True)
+def billiard_run(
+    periods,
+    phase,
+    tile,
+    xi,
+    vx,
+    vyrel,
+    kind,
+    kp,
+    out_periods,
+    out_phase,
+    out_tile,
+    out_xi,
+    out_vx,
+    out_vyrel,
+    out_kind,
+):
+    """Iterate ``billiard_event`` and write each event into the ``out_*`` arrays (in place).
+
+    Returns ``(n_written, status)``; stops early at a failure or at ``STUCK_FOREVER``.
+    """
+    for i in range(out_phase.shape[0]):
+        periods, phase, tile, xi, vx, vyrel, kind, status = billiard_event(
+            periods, phase, tile, xi, vx, vyrel, kind, kp
+        )
+        if status != OK:
+            return i, status
+        out_periods[i] = periods
+        out_phase[i] = phase
+        out_tile[i] = tile
+        out_xi[i] = xi
+        out_vx[i] = vx
+        out_vyrel[i] = vyrel
+        out_kind[i] = kind
+    return out_phase.shape[0], OK
+
+
+@njit(cache=True)
+def billiard_run_count(periods, phase, tile, xi, vx, vyrel, kind, kp, n_events):
+    """Iterate ``n_events`` events without storing them (benchmarks, transients).
+
+    Returns the final ``(periods, phase, tile, xi, vx, vyrel, kind, n_done, status)``.
+    """
+    for i in range(n_events):
+        periods, phase, tile, xi, vx, vyrel, kind, status = billiard_event(
+            periods, phase, tile, xi, vx, vyrel, kind, kp
+        )
+        if status != OK:
+            return periods, phase, tile, xi, vx, vyrel, kind, i, status
+    return periods, phase, tile, xi, vx, vyrel, kind, n_events, OK
