@@ -1,0 +1,210 @@
+"""Ensembles with on-the-fly observables (bbdyn/ensemble.py, bbdyn/core/ensemble.py).
+
+Independent facts only: energy conservation on an elastic static floor, the
+harmonic averages of a particle glued to the floor, identities between counts,
+jumps, the collision record and the displacements, thread independence, and
+array sizes that do not grow with the run length.
+"""
+
+import math
+
+import numba
+import numpy as np
+import pytest
+
+from bbdyn import Params
+from bbdyn.core.status import STICK, STUCK_FOREVER
+from bbdyn.core.tolerances import OBS_INTEGRAL_REL_TOL
+from bbdyn.ensemble import EnsembleResult, ensemble, initial_conditions, reference_box
+from bbdyn.results import load_result
+
+ALL = ("displacement", "energy", "jumps", "record")
+
+
+def _xi_and_b(p, s):
+    """Independent geometry: contact point and arc height above the wedges (MODEL.md section 2)."""
+    xi = p.R * np.sin(s / p.R - math.asin(p.d / (2 * p.R)))
+    return xi, np.sqrt(p.R**2 - xi**2) - math.sqrt(p.R**2 - p.d**2 / 4)
+
+
+def _trap(tile, xi):
+    return tile + (xi >= 0)
+
+
+@pytest.fixture(scope="module")
+def run85():
+    """A quick run at 85.2 Hz with every observable, from t = 0 (no transient)."""
+    p = Params(f=85.2)
+    return ensemble(
+        p,
+        n=40,
+        t=3.0,
+        seed=7,
+        transient=0.0,
+        observables=ALL,
+        jump_capacity=4096,
+        record_particles=40,
+        record_capacity=20000,
+    )
+
+
+def test_initial_conditions_depend_only_on_seed_and_index():
+    p = Params(f=85.2)
+    few, many = initial_conditions(p, 10, 3), initial_conditions(p, 1000, 3)
+    assert np.array_equal(few, many[:10])
+    box = reference_box(p)
+    assert box.s == (0.0, p.s_max)
+    assert np.all((many[:, 0] >= 0) & (many[:, 0] <= p.s_max))
+    assert np.all(np.abs(many[:, 1]) <= 40) and np.all((many[:, 2] > 0) & (many[:, 2] <= 40))
+    assert not np.array_equal(many, initial_conditions(p, 1000, 4))
+
+
+def test_same_numbers_at_one_and_two_threads():
+    if numba.config.NUMBA_NUM_THREADS < 2:
+        pytest.skip("needs two numba threads")
+    kwargs = {"n": 64, "t": 1.5, "seed": 5, "observables": ALL, "record_particles": 3}
+    one = ensemble(Params(f=85.2), threads=1, **kwargs)
+    two = ensemble(Params(f=85.2), threads=2, **kwargs)
+    assert one.meta["threads"] == 1 and two.meta["threads"] == 2
+    assert one.arrays.keys() == two.arrays.keys()
+    for name in one.arrays:
+        assert np.array_equal(one[name], two[name], equal_nan=True), name
+
+
+def test_memory_does_not_grow_with_run_length():
+    kwargs = {"n": 16, "seed": 2, "observables": ALL, "jump_capacity": 8, "record_particles": 2}
+    short = ensemble(Params(f=85.2), t=0.5, record_capacity=50, **kwargs)
+    long = ensemble(Params(f=85.2), t=4.0, record_capacity=50, **kwargs)
+    assert long["events"].sum() > 6 * short["events"].sum()
+    for name in short.arrays:
+        assert short[name].shape == long[name].shape, name
+    # what does not fit is counted, not stored
+    assert np.any(long["jumps"] > 8) and np.any(long["record_n"] > 50)
+
+
+@pytest.mark.parametrize("transient", [0.0, 0.2537], ids=["from_start", "window_cut_mid_flight"])
+def test_elastic_static_floor_conserves_energy_in_every_average(transient):
+    # alpha = beta = 1, A = 0: E = (vx^2 + vy^2)/2 + g y is conserved along the whole orbit,
+    # so its time average over any window is the initial E, whatever the cut points.
+    p = Params(f=50.0, A=0.0, alpha=1.0, beta=1.0)
+    t = 2.0
+    res = ensemble(p, n=24, t=t, seed=1, transient=transient, observables=ALL, record_particles=24,
+                   record_capacity=10000)  # fmt: skip
+    s, vx, vy = res["initial"].T
+    _, b = _xi_and_b(p, s)
+    E0 = 0.5 * (vx**2 + vy**2) + p.g * b
+    assert res["E"] == pytest.approx(E0, rel=1e-10)
+    assert np.all(res["stuck_fraction"] == 0) and np.all(res["sticks"] == 0)
+    assert np.all(res["record_n"] <= 10000)
+    # E_x from the collision record (post-collision vx times flight durations, clipped to the
+    # window by hand): the kernel's clipped integrals must say the same
+    t0 = math.ceil(transient * p.f) / p.f
+    t1 = math.floor(t * p.f) / p.f
+    for i in range(24):
+        rec = res["record"][i, : res["record_n"][i]]
+        times = np.concatenate([[0.0], (rec[:, 0] + rec[:, 1] / (2 * math.pi)) / p.f, [t]])
+        vxs = np.concatenate([[vx[i]], rec[:, 4]])
+        lo, hi = np.clip(times[:-1], t0, t1), np.clip(times[1:], t0, t1)
+        Ex = np.sum(0.5 * vxs**2 * (hi - lo)) / (t1 - t0)
+        assert res["E_x"][i] == pytest.approx(Ex, rel=1e-9)
+
+
+def test_particle_glued_to_the_floor_has_the_harmonic_averages():
+    # Gamma < 1 (40 Hz): every particle chatters, sticks and rides the floor for good.
+    # Over whole periods <u^2/2> = A^2 w^2 / 4 and <g y> = g b(xi) (the mean of -g A sin is 0).
+    p = Params(f=40.0)
+    res = ensemble(p, n=30, t=3.0, seed=3, transient=1.0, observables=ALL)
+    assert np.all(res["status"] == STUCK_FOREVER)
+    assert np.all(res["final"][:, 6] == STICK)
+    tol = 4 * OBS_INTEGRAL_REL_TOL * p.f * 3.0  # a few roundings per period of the window
+    assert res["stuck_fraction"] == pytest.approx(1.0, rel=tol)
+    assert np.all(res["E_x"] == 0)
+    assert res["E_y"] == pytest.approx((p.A * p.w) ** 2 / 4, rel=tol)
+    _, b = _xi_and_b(p, np.zeros(1))
+    final_xi = res["final"][:, 3]
+    b_final = np.sqrt(p.R**2 - final_xi**2) - math.sqrt(p.R**2 - p.d**2 / 4)
+    assert np.all(np.abs(res["E_pot"] - p.g * b_final) <= tol * p.g * (p.A + p.h))
+    # it no longer moves: displacement constant after the transient
+    late = res["sample_times"] >= 1.0
+    assert np.all(res["displacement"][:, late] == res["displacement"][:, late][:, :1])
+    assert np.all(res["collisions"] == 0) and np.all(res["jumps"] == 0)
+
+
+def test_jumps_are_the_trap_changes_of_the_collision_record(run85):
+    res, p = run85, Params(f=85.2)
+    xi0, _ = _xi_and_b(p, res["initial"][:, 0])
+    p_end = res.meta["window_periods"][1]
+    for i in range(res["status"].size):
+        rec = res["record"][i, : res["record_n"][i]]
+        # the record runs to t, the counts to the last whole period before it
+        assert res["collisions"][i] == np.count_nonzero(rec[:, 0] < p_end)
+        rec = rec[rec[:, 0] < p_end]
+        traps = np.concatenate([[_trap(0.0, xi0[i])], _trap(rec[:, 2], rec[:, 3])])
+        steps = np.diff(traps)
+        n_j = res["jumps"][i]
+        assert n_j <= 4096
+        assert np.array_equal(res["jump_len"][i, :n_j], steps[steps != 0])
+        times = (rec[:, 0] + rec[:, 1] / (2 * math.pi)) / p.f
+        assert np.allclose(res["jump_time"][i, :n_j], times[steps != 0], rtol=1e-14, atol=0)
+        assert res["sticks"][i] == np.count_nonzero(rec[:, 6] == STICK)
+
+
+def test_displacements_agree_with_the_final_state(run85):
+    res, p = run85, Params(f=85.2)
+    xi0, _ = _xi_and_b(p, res["initial"][:, 0])
+    assert np.all(res["displacement"][:, 0] == 0.0)  # sample at t = 0
+    periods, phase, tile, xi, vx, _, kind = res["final"].T
+    t_last = (periods + phase / (2 * math.pi)) / p.f
+    flying = kind != STICK
+    x_end = tile * p.d + xi + np.where(flying, vx * (res.meta["t"] - t_last), 0.0) - xi0
+    assert res["displacement"][:, -1] == pytest.approx(x_end, rel=1e-12, abs=1e-12)
+
+
+def test_end_to_end_at_85_2_hz_quick(run85, tmp_path):
+    res = run85
+    assert res["status"].tolist() == [0] * 40
+    summary = res.summary()
+    assert summary["D"] > 0 and 0 < summary["D_se"] < summary["D"]
+    assert 0 <= summary["stuck_fraction"] < 1
+    assert summary["collisions_per_particle_per_s"] > 0
+    assert np.allclose(res["E"], res["E_x"] + res["E_y"] + res["E_pot"], rtol=1e-14)
+    # flights dominate at Gamma = 2.9: a parabola spends twice as much in g y as in vy^2/2
+    # (relative to its launch height), so E_pot exceeds E_y
+    assert summary["E_pot"] > summary["E_y"] > 0 and summary["E_x"] > 0
+    path = res.save(tmp_path / "ens")
+    back = load_result(path)
+    assert isinstance(back, EnsembleResult)
+    assert back.D() == res.D()
+    assert back.plot() is not None
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "message"),
+    [
+        ({"params": Params(f=85.2, beta=1.0)}, "slide"),
+        ({"initial": [[1.0, 0.0, -100.0]]}, "must leave the floor"),
+        ({"initial": [[5.0, 0.0, 1.0]]}, "initial s must be in"),
+        ({"t": -1.0}, "t must be"),
+        ({"transient": 2.0}, "transient must be in"),
+        ({"observables": ("msd",)}, "observables must be among"),
+        ({"sample_times": [0.5, 0.1]}, "sample_times must be"),
+        ({"t": 0.01, "transient": 0.005}, "no whole driving period"),
+    ],
+    ids=[
+        "beta_one_alpha_below_one",
+        "into_the_floor",
+        "s_outside_arc",
+        "negative_t",
+        "transient_beyond_t",
+        "unknown_observable",
+        "unsorted_samples",
+        "window_too_short",
+    ],
+)
+def test_bad_input_is_refused_with_a_clear_message(kwargs, message):
+    args = {"params": Params(f=85.2), "t": 1.0, "seed": 0}
+    args.update(kwargs)
+    if "initial" not in args:
+        args["n"] = 4
+    with pytest.raises(ValueError, match=message):
+        ensemble(args.pop("params"), **args)
