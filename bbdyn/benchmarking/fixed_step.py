@@ -17,12 +17,14 @@ What it cannot do:
 
 * it misses a contact whose dip below the plate lasts less than ``dt`` (the
   gap is negative between two samples and positive at both);
-* it has no chattering: a flight is at least ``dt_min`` long, so an
-  accumulating bounce sequence turns into "micro-bounces" every ~``dt_min``
-  with ``vrel+ ~ alpha g_eff dt_min / (1 + alpha)`` (the fixed point of
-  ``v -> alpha (g_eff dt_min - v)``), until the plate accelerates downward
-  faster than g and the particle flies off.  Sticking is thus emulated by
-  about ``1 / dt_min`` impacts per second of contact.
+* it has no chattering: a flight lasts at least one final bracket ``h <= dt_min``,
+  so an accumulating bounce sequence turns into "micro-bounces" of ``m h``
+  each, with ``vrel+ -> alpha g_eff m h / (1 + alpha)`` (the fixed point of
+  ``v -> alpha (g_eff m h - v)``); every integer ``1 <= m < (1 + alpha) / (1 - alpha)``
+  is self-consistent (the free flight ``2 vrel+ / g_eff`` ends in the m-th bracket),
+  and history picks one.  This goes on until the plate accelerates downward
+  faster than g and the particle flies off: sticking is emulated by about
+  ``1 / (m h)`` impacts per second of contact.
 """
 
 import math

@@ -69,7 +69,11 @@ CASE = {"f": 82.0, "alpha": 0.8, "phase0": 0.3, "vrel0": 50.0, "transient": 10_0
 QUICK: dict[str, Any] = {
     "n_impacts": 40,
     "fixed": [(1e-4, 1e-6), (1e-5, 1e-6), (1e-4, 1e-8)],
-    "ivp": [("RK45", "lab", 1e-6), ("DOP853", "plate", 1e-10)],
+    "ivp": [
+        ("RK45", "lab", 1e-6, math.inf),
+        ("RK45", "lab", 1e-6, 0.05),
+        ("DOP853", "plate", 1e-10, math.inf),
+    ],
     "long_run": 2_000,
     "long_run_fixed": [(1e-4, 1e-6)],
     "continuous_events": 200_000,
@@ -87,16 +91,17 @@ FULL: dict[str, Any] = {
         (1e-4, 1e-10),
     ],
     "ivp": [
-        ("RK45", "lab", 1e-3),
-        ("RK45", "lab", 1e-6),
-        ("RK45", "lab", 1e-9),
-        ("DOP853", "lab", 1e-6),
-        ("DOP853", "lab", 1e-10),
-        ("RK45", "plate", 1e-6),
-        ("RK45", "plate", 1e-9),
-        ("DOP853", "plate", 1e-6),
-        ("DOP853", "plate", 1e-10),
-        ("DOP853", "plate", 1e-13),
+        ("RK45", "lab", 1e-3, math.inf),
+        ("RK45", "lab", 1e-9, math.inf),
+        ("DOP853", "lab", 1e-13, math.inf),
+        ("RK45", "lab", 1e-6, 0.05),
+        ("DOP853", "lab", 1e-10, 0.05),
+        ("RK45", "plate", 1e-3, math.inf),
+        ("RK45", "plate", 1e-6, math.inf),
+        ("RK45", "plate", 1e-9, math.inf),
+        ("DOP853", "plate", 1e-6, math.inf),
+        ("DOP853", "plate", 1e-10, math.inf),
+        ("DOP853", "plate", 1e-13, math.inf),
     ],
     "long_run": 100_000,
     "long_run_fixed": [(1e-4, 1e-6), (1e-5, 1e-6)],
@@ -164,7 +169,9 @@ def exact_one_step(phases, vrels, kp, out_tau, out_vrel_minus):
     return OK
 
 
-def ivp_flight(kp, phase: float, vrel: float, method: str, frame: str, rtol: float):
+def ivp_flight(
+    kp, phase: float, vrel: float, method: str, frame: str, rtol: float, max_step: float = math.inf
+):
     """One flight with ``scipy.integrate.solve_ivp`` and a terminal event.
 
     Parameters
@@ -179,6 +186,8 @@ def ivp_flight(kp, phase: float, vrel: float, method: str, frame: str, rtol: flo
     rtol : float
         Relative tolerance; the absolute tolerance is ``rtol`` times the scales
         (A mm, A w mm/s).
+    max_step : float
+        Largest step, in driving periods (scipy's default: no limit).
 
     Returns
     -------
@@ -221,6 +230,7 @@ def ivp_flight(kp, phase: float, vrel: float, method: str, frame: str, rtol: flo
         rtol=rtol,
         atol=[rtol * A, rtol * A * w],
         events=event,
+        max_step=max_step * kp.period,
     )
     if sol.t_events[0].size == 0:
         return math.inf, math.nan
@@ -312,20 +322,24 @@ def _bench_fixed(kp, states, settings) -> list[dict[str, Any]]:
 def _bench_ivp(kp, states, settings) -> list[dict[str, Any]]:
     n = states["phase"].size
     rows = []
-    for method, frame, rtol in settings["ivp"]:
+    for method, frame, rtol, max_step in settings["ivp"]:
         tau = np.empty(n)
         vm = np.empty(n)
+        args = (method, frame, rtol, max_step)
 
-        def run(method=method, frame=frame, rtol=rtol, tau=tau, vm=vm):
+        def run(args=args, tau=tau, vm=vm):
             for i in range(n):
                 tau[i], vm[i] = ivp_flight(
-                    kp, float(states["phase"][i]), float(states["vrel"][i]), method, frame, rtol
+                    kp, float(states["phase"][i]), float(states["vrel"][i]), *args
                 )
 
         # solve_ivp is slow: each repeat is one pass over the flights.
         timing = measure(run, repeats=settings["repeats"], min_time=0.0)
-        row = {"method": "solve_ivp", "setting": f"{method} {frame} frame, rtol={rtol:g}"}
-        row.update(ivp_method=method, frame=frame, rtol=rtol)
+        setting = f"{method} {frame} frame, rtol={rtol:g}"
+        if math.isfinite(max_step):
+            setting += f", max_step={max_step:g} T"
+        row = {"method": "solve_ivp", "setting": setting}
+        row.update(ivp_method=method, frame=frame, rtol=rtol, max_step_periods=max_step)
         row.update(impacts_per_s=timing.per_second(n), **one_step_errors(kp, states, tau, vm))
         rows.append(row)
     return rows
@@ -449,7 +463,8 @@ def _short(row: dict[str, Any]) -> str:
     if row["method"] == "fixed_step":
         return f"{row['dt']:g}/{row['dt_min']:g}"
     if row["method"] == "solve_ivp":
-        return f"{row['ivp_method']} {row['frame'][0]} {row['rtol']:g}"
+        label = f"{row['ivp_method']} {row['frame'][0]} {row['rtol']:g}"
+        return label + ("" if math.isinf(row["max_step_periods"]) else " m")
     return ""
 
 
