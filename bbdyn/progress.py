@@ -47,8 +47,10 @@ class Progress:
     >>> import io
     >>> out = io.StringIO()
     >>> bar = Progress(4, done=1, label="f", stream=out)
+    >>> out.getvalue().splitlines()[0]
+    'f: 1/4 | -/s | - left'
     >>> bar.update()
-    >>> out.getvalue().startswith("f: 2/4")
+    >>> out.getvalue().splitlines()[-1].startswith("f: 2/4 | ")
     True
     """
 

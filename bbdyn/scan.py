@@ -267,6 +267,12 @@ class _DaskBackend:
             self.client.close()
 
 
+def _available_cores() -> int:
+    if hasattr(os, "sched_getaffinity"):  # respects taskset / container CPU limits
+        return len(os.sched_getaffinity(0))
+    return os.cpu_count() or 1
+
+
 # ---- the scan -------------------------------------------------------------------------------
 def run_scan(
     values: Sequence[float],
@@ -351,7 +357,7 @@ def run_scan(
         if scheduler is not None:
             backend = _DaskBackend(scheduler)
         else:
-            n = workers or len(os.sched_getaffinity(0))
+            n = workers or _available_cores()
             backend = _LocalBackend(min(n, len(todo)))
         try:
             _drive(backend, todo, compute, seed, name, stems, manifest, bar, out_dir)

@@ -324,18 +324,39 @@ def test_plot_draws_errorbars_of_a_scalar(reference):
 
 
 # ---- dask -----------------------------------------------------------------------------------
-def test_dask_local_cluster_gives_the_local_numbers(tmp_path, reference):
+@pytest.fixture(scope="module")
+def cluster():
     distributed = pytest.importorskip(
         "distributed", reason="dask.distributed not installed (pip install 'bbdyn[dask]')"
     )
-    with (
-        distributed.LocalCluster(
-            n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None
-        ) as cluster,
-        distributed.Client(cluster) as client,
-    ):
+    with distributed.LocalCluster(
+        n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None
+    ) as cluster:
+        yield cluster
+
+
+@pytest.mark.parametrize("how", ["client", "address"])
+def test_dask_local_cluster_gives_the_local_numbers(tmp_path, reference, cluster, how):
+    import distributed
+
+    if how == "client":
+        with distributed.Client(cluster) as client:
+            res = run_scan(VALUES, synthetic, out_dir=tmp_path, seed=3, scheduler=client)
+    else:
         res = run_scan(
-            VALUES, synthetic, out_dir=tmp_path, seed=3, scheduler=client, progress=False
+            VALUES, synthetic, out_dir=tmp_path, seed=3, scheduler=cluster.scheduler_address
         )
     _same(res, reference)
     assert os.getpid() not in {p["pid"] for p in res.meta["points"]}
+
+
+def test_dask_crash_keeps_points_and_local_resume_matches(tmp_path, reference, cluster):
+    stop = tmp_path / "stop"
+    stop.touch()
+    compute = functools.partial(synthetic, stop_file=str(stop))
+    out = tmp_path / "scan"
+    with pytest.raises(RuntimeError, match="stopped at"):
+        run_scan(VALUES, compute, out_dir=out, seed=3, scheduler=cluster.scheduler_address)
+    assert load_scan(out, partial=True).values.tolist() == [v for v in VALUES if v <= 60.0]
+    stop.unlink()
+    _same(run_scan(VALUES, compute, out_dir=out, seed=3, workers=1, progress=False), reference)
