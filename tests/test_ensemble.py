@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 from bbdyn import Params
-from bbdyn.core.status import STICK, STUCK_FOREVER
+from bbdyn.core.status import IMPACT, STICK, STUCK_FOREVER
 from bbdyn.core.tolerances import OBS_INTEGRAL_REL_TOL
 from bbdyn.ensemble import EnsembleResult, ensemble, initial_conditions, reference_box
 from bbdyn.results import load_result
@@ -208,3 +208,57 @@ def test_bad_input_is_refused_with_a_clear_message(kwargs, message):
         args["n"] = 4
     with pytest.raises(ValueError, match=message):
         ensemble(args.pop("params"), **args)
+
+
+def _integrands(p, stuck, te, phase, b, vx, vyrel):
+    """E_x, E_y and g y as functions of t (s) on a stuck interval or a flight from time te."""
+    A, w, g = p.A, p.w, p.g
+    if stuck:
+        return (
+            lambda t: 0.0,
+            lambda t: 0.5 * (A * w * math.cos(w * t)) ** 2,
+            lambda t: g * (b - A * math.sin(w * t)),
+        )
+    y0, vy0 = -A * math.sin(phase) + b, vyrel - A * w * math.cos(phase)
+    return (
+        lambda t: 0.5 * vx**2,
+        lambda t: 0.5 * (vy0 - g * (t - te)) ** 2,
+        lambda t: g * (y0 + vy0 * (t - te) - 0.5 * g * (t - te) ** 2),
+    )
+
+
+def test_energy_averages_agree_with_quadrature_along_the_recorded_orbit():
+    # Rebuild one dissipative orbit (flights, sticks, releases) from its collision record and
+    # integrate E_x, E_y and g y over the window by adaptive quadrature of the same motion.
+    from scipy.integrate import quad
+
+    p = Params(f=85.2)
+    res = ensemble(p, n=3, t=0.6, seed=4, transient=0.1, observables=ALL, record_particles=3)
+    theta_r = math.pi + math.asin(1 / p.gamma)
+    t0, t1 = (np.array(res.meta["window_periods"]) / p.f).tolist()
+    for i in range(3):
+        assert res["sticks"][i] > 0  # the orbit must contain stuck intervals to test them
+        s, vx, vy = res["initial"][i]
+        xi, _ = _xi_and_b(p, np.array([s]))
+        events = [(0.0, 0.0, xi[0], vx, vy + p.A * p.w, IMPACT)]
+        for periods, phase, _, xi_k, vx_k, vyrel_k, kind in res["record"][i, : res["record_n"][i]]:
+            events.append(
+                ((periods + phase / (2 * math.pi)) / p.f, phase, xi_k, vx_k, vyrel_k, kind)
+            )
+            if kind == STICK:
+                n_rel = periods + (phase > theta_r)
+                events.append(
+                    ((n_rel + theta_r / (2 * math.pi)) / p.f, theta_r, xi_k, 0.0, 0.0, -1)
+                )
+        events.append((res.meta["t"], 0, 0, 0, 0, 0))
+        total = np.zeros(3)
+        for (te, ph, xi_e, vx_e, vyrel_e, kind), nxt in zip(events[:-1], events[1:], strict=True):
+            lo, hi = max(te, t0), min(nxt[0], t1)
+            if hi <= lo:
+                continue
+            b = math.sqrt(p.R**2 - xi_e**2) - math.sqrt(p.R**2 - p.d**2 / 4)
+            integrands = _integrands(p, kind == STICK, te, ph, b, vx_e, vyrel_e)
+            total += [quad(f, lo, hi, epsabs=0, epsrel=1e-12)[0] for f in integrands]
+        averages = total / (t1 - t0)
+        got = [res["E_x"][i], res["E_y"][i], res["E_pot"][i]]
+        assert got == pytest.approx(averages, rel=1e-9)
