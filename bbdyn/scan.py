@@ -26,6 +26,7 @@ import json
 import multiprocessing
 import os
 import socket
+import sys
 import time
 from collections.abc import Callable, Sequence
 from pathlib import Path
@@ -115,6 +116,17 @@ def describe_compute(compute: Callable) -> dict[str, Any]:
         "args": _canonical(list(args), "compute's fixed arguments"),
         "kwargs": _canonical(kwargs, "compute's fixed keyword arguments"),
     }
+
+
+def _check_importable(compute: Callable) -> None:
+    """Local workers import ``compute`` by name: refuse functions they cannot import."""
+    func = compute.func if isinstance(compute, functools.partial) else compute
+    main = sys.modules.get("__main__")
+    if getattr(func, "__module__", None) == "__main__" and not getattr(main, "__file__", None):
+        raise ValueError(
+            "compute must be importable by worker processes, got a function defined "
+            "interactively (notebook or REPL): move it to a module, or pass scheduler="
+        )
 
 
 def _check_values(values: Sequence[float], name: str) -> tuple[list[float], list[int]]:
@@ -335,6 +347,8 @@ def run_scan(
         isinstance(workers, bool) or not isinstance(workers, int) or workers < 1
     ):
         raise ValueError(f"workers must be an integer >= 1, got {workers!r}")
+    if scheduler is None:
+        _check_importable(compute)
     stream = progress_stream(progress)
     out_dir = Path(out_dir)
     manifest = {
@@ -353,17 +367,14 @@ def run_scan(
     stems = {v: out_dir / POINTS / _point_stem(name, k) for v, k in zip(floats, keys, strict=True)}
     todo = [v for v in floats if not _is_done(stems[v])]
     bar = Progress(len(floats), done=len(floats) - len(todo), label=name, stream=stream)
-    if todo:
-        if scheduler is not None:
-            backend = _DaskBackend(scheduler)
-        else:
-            n = workers or _available_cores()
-            backend = _LocalBackend(min(n, len(todo)))
-        try:
+    try:
+        if todo:
+            if scheduler is not None:
+                backend = _DaskBackend(scheduler)
+            else:
+                backend = _LocalBackend(min(workers or _available_cores(), len(todo)))
             _drive(backend, todo, compute, seed, name, stems, manifest, bar, out_dir)
-        finally:
-            bar.close()
-    else:
+    finally:
         bar.close()
     return load_scan(out_dir)
 
