@@ -201,15 +201,19 @@ def green_kubo(
     d_corr_b, d_sym_b = _series(corr_b, _weighted_means(signed, weights), tau_b, data.d)
 
     def spread(samples):
+        # NaN where a resample has no particle with enough jumps: too few to tell
         with np.errstate(invalid="ignore"):
             return np.std(samples, axis=0, ddof=1)
+
+    def padded(values):
+        return np.r_[values, np.full(nmax - n_sym, np.nan)]
 
     arrays = {
         "n": np.arange(nmax + 1),
         "D_n": d_corr,
         "D_n_err": spread(d_corr_b),
-        "D_n_symbols": d_sym,
-        "D_n_symbols_err": spread(d_sym_b),
+        "D_n_symbols": padded(d_sym),
+        "D_n_symbols_err": padded(spread(d_sym_b)),
         "corr": corr_mean * data.d**2,
         "corr_err": spread(corr_b) * data.d**2,
         "n_particles_used": np.sum(np.isfinite(corr), axis=0),
@@ -220,9 +224,9 @@ def green_kubo(
         "jump_counts": lengths.counts,
     }
     if esc.n_jumps == 0:  # trapped: no displacement beyond the own trap
-        for key in ("D_n", "D_n_symbols"):
-            arrays[key] = np.zeros(nmax + 1)
-            arrays[key + "_err"] = np.full(nmax + 1, np.nan)
+        arrays["D_n"] = np.zeros(nmax + 1)
+        arrays["D_n_symbols"] = padded(np.zeros(n_sym + 1))
+        arrays["D_n_err"] = arrays["D_n_symbols_err"] = np.full(nmax + 1, np.nan)
     info = {
         "tau": esc.tau,
         "tau_err": esc.tau_err,
@@ -251,7 +255,8 @@ class GreenKuboResult(Result):
 
     Arrays: ``n``; ``D_n``, ``D_n_err`` (correlation route, mm^2/s);
     ``D_n_symbols``, ``D_n_symbols_err`` (symbol route, up to ``symbol_nmax``,
-    NaN beyond); ``corr``, ``corr_err`` (``<h_0 h_k>``, mm^2);
+    NaN beyond); errors are NaN where some bootstrap resample holds no particle
+    with more than n jumps; ``corr``, ``corr_err`` (``<h_0 h_k>``, mm^2);
     ``n_particles_used`` per lag; ``words``, ``p_words``, ``p_words_err`` (symbol
     table); ``jump_lengths`` (h/d), ``jump_counts``.  Meta: ``tau``, ``tau_err``
     (s), ``D_rw``, ``D_rw_err``, ``fraction_long``, ``D_einstein`` (or None), ...
@@ -308,7 +313,7 @@ class GreenKuboResult(Result):
             self.D_n_err,
             self.arrays["D_n_symbols"],
             self.arrays["D_n_symbols_err"],
-            strict=False,
+            strict=True,
         ):
             lines.append(f"{n:<3} {dc:9.4f} +- {ec:7.4f}  {ds:9.4f} +- {es:7.4f}")
         return "\n".join(lines)
@@ -321,10 +326,7 @@ class GreenKuboResult(Result):
             _, ax = plt.subplots(figsize=(5, 3.5))
         n = self.arrays["n"]
         ax.errorbar(n, self.D_n, yerr=self.D_n_err, fmt="o-", ms=4, capsize=2, label="$D_n$")
-        n_sym = self.meta["symbol_nmax"] + 1
-        ax.plot(
-            n[:n_sym], self.arrays["D_n_symbols"][:n_sym], "s", mfc="none", ms=8, label="symbols"
-        )
+        ax.plot(n, self.arrays["D_n_symbols"], "s", mfc="none", ms=8, label="symbols")
         ax.axhline(self.meta["D_rw"], color="0.5", ls=":", label="$D_{rw}$")
         if self.meta.get("D_einstein") is not None:
             D, err = self.meta["D_einstein"], self.meta.get("D_einstein_err") or 0.0
