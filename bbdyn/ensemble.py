@@ -332,6 +332,30 @@ class EnsembleResult(Result):
 
         return einstein_D(self["sample_times"], self["displacement"], window=window)
 
+    def jump_data(self):
+        """The jumps in the averaging window as ``bbdyn.approx.JumpData``.
+
+        Times are measured from the start of the window (``t_total`` is its length).
+        Raises ValueError if the run did not record jumps or a buffer overflowed.
+        """
+        from bbdyn.approx import JumpData
+
+        if "jump_len" not in self.arrays:
+            raise ValueError("jumps were not recorded: run with observables including 'jumps'")
+        counts, cap = self["jumps"], self["jump_len"].shape[1]
+        if np.any(counts > cap):
+            raise ValueError(
+                f"{np.count_nonzero(counts > cap)} particle(s) made more than jump_capacity = "
+                f"{cap} jumps (up to {counts.max()}); run again with a larger jump_capacity"
+            )
+        t0 = self.meta["window_periods"][0] / self.meta["params"]["f"]
+        return JumpData.from_particles(
+            [row[:k] for row, k in zip(self["jump_len"], counts, strict=True)],
+            [row[:k] - t0 for row, k in zip(self["jump_time"], counts, strict=True)],
+            t_total=self.meta["window_s"],
+            d=self.meta["params"]["d"],
+        )
+
     def summary(self, window=(0.5, 1.0)) -> dict[str, float]:
         """Ensemble means with standard errors over particles (plain floats, for JSON)."""
         n = self["status"].size

@@ -262,3 +262,33 @@ def test_energy_averages_agree_with_quadrature_along_the_recorded_orbit():
         averages = total / (t1 - t0)
         got = [res["E_x"][i], res["E_y"][i], res["E_pot"][i]]
         assert got == pytest.approx(averages, rel=1e-9)
+
+
+def test_jump_data_hands_the_window_jumps_to_the_random_walk_analysis(run85):
+    data = run85.jump_data()
+    assert data.n_particles == 40
+    assert np.array_equal(data.counts, run85["jumps"])
+    assert np.all((data.times >= 0) & (data.times <= run85.meta["window_s"]))
+    small = ensemble(Params(f=85.2), n=8, t=2.0, seed=1, observables=ALL, jump_capacity=1)
+    with pytest.raises(ValueError, match="larger jump_capacity"):
+        small.jump_data()
+
+
+def test_simulate_command_prints_the_required_fields(capsys):
+    import argparse
+    import json
+
+    from bbdyn.commands import simulate
+
+    parser = argparse.ArgumentParser()
+    simulate.add_arguments(parser)
+    args = parser.parse_args(["--f", "85.2", "--n", "20", "--t", "1", "--seed", "3", "--json"])
+    assert simulate.run(args) == 0
+    out = json.loads(capsys.readouterr().out)
+    for key in ("D", "D_se", "E", "E_x", "E_y", "stuck_fraction", "collisions_per_particle_per_s",
+                "wall_s", "params", "seed", "version"):  # fmt: skip
+        assert key in out, key
+    assert out["params"]["f"] == 85.2 and out["seed"] == 3
+    args = parser.parse_args(["--f", "85.2", "--n", "20", "--t", "1", "--seed", "3"])
+    assert simulate.run(args) == 0
+    assert "D " in capsys.readouterr().out
