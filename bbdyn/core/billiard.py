@@ -54,6 +54,7 @@ from bbdyn.core.status import (
 )
 from bbdyn.core.tolerances import (
     CHATTER_REL_TOL,
+    DEPARTURE_REL_TOL,
     ROOT_MAX_STEPS,
     ROOT_STEP_REL,
     WEDGE_MAX_REFLECTIONS,
@@ -108,6 +109,32 @@ def flight_gap(phase, xi0, vx, vyrel, tau, kp):
     S0 = arc_root(xi0, kp)
     G = segment_gap(tau, k, math.sin(phase), math.cos(phase), xi0, S0, vx, vyrel, kp)[0]
     return G
+
+
+@njit(cache=True, inline="always")
+def tangent_departure(sn, xi0, S0, vx, tc, kp):
+    """A time (s) up to which a flight leaving tangentially (G(0) = G'(0) = 0) stays clear.
+
+    With ``G''(0) = -g - A w^2 sin(theta) + R^2 vx^2 / S0^3 > 0`` (the convex arc
+    falls away faster than the particle), ``G(tau) >= G''(0) tau^2/2 - J tau^3/6``
+    with ``J = A w^3 + 3 R^2 |xi|_max |vx|^3 / S_min^5`` bounding |G'''| on the tile
+    segment; the returned ``tau <= tc`` has ``J tau < 1.5 G''(0)``, hence
+    ``G > 0`` for 0 < t <= tau.  Returns 0 if ``G''(0) <= 0`` (it cannot leave).
+    """
+    A, w, R = kp.A, kp.w, kp.R
+    half = 0.5 * kp.d
+    G2 = -kp.g - A * w * w * sn + R * R * vx * vx / (S0 * S0 * S0)
+    if not G2 > 0.0:
+        return 0.0
+    tau = tc if tc < math.inf else 1.0 / w
+    for _ in range(64):
+        xm = min(max(abs(xi0), abs(xi0 + vx * tau)), half)
+        Sm = arc_root(xm, kp)
+        J = A * w * w * w + 3.0 * R * R * xm * abs(vx) ** 3 / Sm**5
+        if J * tau < 1.5 * G2:
+            return tau
+        tau = min(0.5 * tau, 1.4 * G2 / J)
+    return 0.0
 
 
 @njit(cache=True)
@@ -165,6 +192,8 @@ def billiard_flight(phase, xi0, vx, vyrel, kp):
     xi = xi0
     tc = crossing_time(xi0, k, vx, d)
 
+    if abs(Gp) <= DEPARTURE_REL_TOL * (abs(vyrel) + abs(vx * xi0) / S0):
+        Gp = 0.0  # tangent departure (alpha = 0): rounding of V.n = 0 must not count
     theta_r, theta_e = release_window(kp.gamma)
     if theta_r <= phase < theta_e:
         # G'' > 0 on a tile until theta_e and G(0) = 0, G'(0) >= 0: no contact before
@@ -172,6 +201,13 @@ def billiard_flight(phase, xi0, vx, vyrel, kp):
         if Gp < 0.0:
             return 0.0, k_base, xi0, vyrel, 0, BAD_STATE
         tau = min((theta_e - phase) / w, tc)
+        if tau == tc:
+            k += direction
+        G, Gp, G_env, G_envp, xi = segment_gap(tau, k, sn, cs, xi0, S0, vx, vyrel, kp)
+    elif Gp == 0.0:
+        tau = tangent_departure(sn, xi0, S0, vx, tc, kp)
+        if tau == 0.0:
+            return 0.0, k_base, xi0, vyrel, 0, BAD_STATE
         if tau == tc:
             k += direction
         G, Gp, G_env, G_envp, xi = segment_gap(tau, k, sn, cs, xi0, S0, vx, vyrel, kp)

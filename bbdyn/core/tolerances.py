@@ -84,3 +84,8 @@ GK_ROUTES_REL = 64.0 * EPS
 #: A closed form evaluated by two different float expressions (library code and
 #: a lambdified sympy derivation): a handful of roundings in products and sqrt.
 CLOSED_FORM_REL = 16.0 * EPS
+
+#: A departure velocity whose normal component is below this fraction of its
+#: magnitude is tangent (alpha = 0 makes V.n = 0 exactly; recomputing it from
+#: (vx, vyrel) leaves a few ulp of either sign).
+DEPARTURE_REL_TOL = 8.0 * EPS
