@@ -323,10 +323,10 @@ class GreenKuboResult(Result):
         import matplotlib.pyplot as plt
 
         if ax is None:
-            _, ax = plt.subplots(figsize=(5, 3.5))
+            _, ax = plt.subplots(figsize=(5, 3.5), layout="constrained")
         n = self.arrays["n"]
         ax.errorbar(n, self.D_n, yerr=self.D_n_err, fmt="o-", ms=4, capsize=2, label="$D_n$")
-        ax.plot(n, self.arrays["D_n_symbols"], "s", mfc="none", ms=8, label="symbols")
+        ax.plot(n, self.arrays["D_n_symbols"], "s", color="k", mfc="none", ms=8, label="symbols")
         ax.axhline(self.meta["D_rw"], color="0.5", ls=":", label="$D_{rw}$")
         if self.meta.get("D_einstein") is not None:
             D, err = self.meta["D_einstein"], self.meta.get("D_einstein_err") or 0.0
