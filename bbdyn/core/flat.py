@@ -75,8 +75,9 @@ def safe_step(G, Gp, M):
 def flat_gap(vrel, g, A, w, s0, c0, tau):
     """Gap G (mm) and its rate G' (mm/s) at ``tau`` after an event at phase theta."""
     x = w * tau
-    sin_x = math.sin(x)
+    # one sin/cos pair of x/2 (the compiler fuses it into one sincos call)
     sin_half = math.sin(0.5 * x)
+    sin_x = 2.0 * sin_half * math.cos(0.5 * x)
     G = vrel * tau - 0.5 * g * tau * tau - plate_rise(A, s0, c0, x, sin_x, sin_half)
     Gp = vrel - g * tau - plate_dvel(A, w, s0, c0, sin_x, sin_half)
     return G, Gp
@@ -111,7 +112,11 @@ def flat_flight(phase, vrel, kp):
     tau = 0.0
     G = 0.0
     Gp = vrel
-    theta_r, theta_e = release_window(kp.gamma)
+    # Cheap superset of the release window sin(phase) < -1/Gamma before the asin.
+    if kp.gamma * s0 < -1.0 + 1e-9:
+        theta_r, theta_e = release_window(kp.gamma)
+    else:
+        theta_r, theta_e = -1.0, -1.0
     if theta_r <= phase < theta_e:
         # G'' > 0 until theta_e and G(0) = 0, G'(0) >= 0: no contact before theta_e.
         if vrel < 0.0:
