@@ -356,7 +356,8 @@ def find_periodic_orbit(params: Params, k: int, m: int, phase: float, vrel: floa
     k, m = _check_k("k", k), _check_k("m", m)
     phase, vrel = _check_state(phase, vrel)
     kp = params.kernel()
-    scale = np.array([TWO_PI * k, vrel])
+    # velocity scale: the launch speed of a k-period flight (vrel alone may be tiny)
+    scale = np.array([TWO_PI * k, vrel + kp.g * kp.period * k])
 
     def fun(z):
         R, jac, extra = _chain(z, k, m, kp)
@@ -423,27 +424,29 @@ def k1_orbit_numeric(
 def gamma_hi_numeric(k: int, alpha: float, A: float = 0.1, g: float = 9800.0) -> float:
     """Upper tongue edge from the exact map: where a multiplier of the k/1 orbit is -1.
 
-    Marches the stable-branch orbit up in Gamma from just above the lower edge
-    (continuation: each Newton solve starts from the previous orbit) until
-    ``det(J + I) = (1 + l1)(1 + l2)`` changes sign, then ``brentq`` on it.
+    Marches up in Gamma from just above the lower edge, solving the stable-branch
+    orbit by Newton on the exact map at each Gamma (the closed form is only the
+    starting guess), until ``det(J + I) = (1 + l1)(1 + l2)`` changes sign, then
+    ``brentq`` on it.
     """
     from scipy.optimize import brentq
 
     k, alpha = _check_k("k", k), _check_alpha_numeric(alpha)
     lo = tongue_gamma_lo(k, alpha)
     step = 0.05 * max(lo, 1.0)
-    last = {}
 
     def det_j_plus_i(gamma):
-        # continuation in the dimensionless velocity vrel w / g, which varies slowly
-        w = TWO_PI * frequency_at_gamma(gamma, A, g)
-        guess = None if "V" not in last else (last["phase"], last["V"] * g / w)
-        orbit = k1_orbit_numeric(k, gamma, alpha, A, g, guess)
-        last.update(phase=orbit["phase"][0], V=orbit["vrel"][0] * w / g)
+        orbit = k1_orbit_numeric(k, gamma, alpha, A, g)
         return float(np.linalg.det(orbit["jacobian"] + np.eye(2)))
 
     a = lo + 0.5 * step
     fa = det_j_plus_i(a)
+    for _ in range(40):  # narrow tongues (small alpha, large k): start closer to the fold
+        if fa > 0.0:
+            break
+        step *= 0.25
+        a = lo + 0.5 * step
+        fa = det_j_plus_i(a)
     for _ in range(1000):
         b = a + step
         fb = det_j_plus_i(b)
@@ -508,9 +511,20 @@ def gamma_lo_numeric(k: int, alpha: float, A: float = 0.1, g: float = 9800.0) ->
         found[theta] = gamma
         return float(np.linalg.det(jac - np.eye(2)))
 
-    theta = brentq(det_j_minus_i, math.pi - 0.25, math.pi + 0.25, xtol=1e-14, rtol=BOUNDARY_RTOL)
-    det_j_minus_i(theta)
-    return found[theta]
+    # For small alpha the saddle branch (theta < pi) is virtual a little away from
+    # the fold (the slow ball meets the rising plate early), so the bracket shrinks.
+    for half in (0.25, 0.1, 0.03, 0.01):
+        try:
+            ends = (det_j_minus_i(math.pi - half), det_j_minus_i(math.pi + half))
+        except OrbitNotFound:
+            continue
+        if ends[0] * ends[1] < 0:
+            theta = brentq(
+                det_j_minus_i, math.pi - half, math.pi + half, xtol=1e-14, rtol=BOUNDARY_RTOL
+            )
+            det_j_minus_i(theta)
+            return found[theta]
+    raise OrbitNotFound(f"no fold of the {k}/1 orbit found near phase pi (alpha = {alpha})")
 
 
 # ---- the table of tongues -------------------------------------------------------------------

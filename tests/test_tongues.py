@@ -245,3 +245,34 @@ def test_tongue_table_frequencies_match_model_md():
         assert row["f_lo_hz"] == pytest.approx(f_lo, abs=0.005)
         assert row["f_hi_hz"] == pytest.approx(f_hi, abs=0.005)
         assert row["gamma_hi_numeric"] is None
+
+
+def test_cli_tongues_json_matches_closed_form_and_numeric_edges(capsys):
+    import json
+
+    from bbdyn.cli import main
+
+    assert main(["tongues", "--alpha", "0.5", "--kmax", "3", "--json"]) == 0
+    rows = json.loads(capsys.readouterr().out)
+    assert [r["k"] for r in rows] == [1, 2, 3]
+    for r in rows:
+        assert r["gamma_lo"] == pytest.approx(tongue_gamma_lo(r["k"], 0.5), rel=1e-12)
+        assert r["gamma_hi"] == pytest.approx(tongue_gamma_hi(r["k"], 0.5), rel=1e-12)
+        assert abs(r["gamma_hi_numeric"] / r["gamma_hi"] - 1) <= EDGE_AGREE_REL
+        assert abs(r["gamma_lo_numeric"] / r["gamma_lo"] - 1) <= EDGE_AGREE_REL
+        assert r["f_lo_hz"] == pytest.approx(math.sqrt(r["gamma_lo"] * 98000) / (2 * math.pi))
+
+
+def test_scene_s1_quick_saves_numbers_and_redraws(tmp_path):
+    from bbdyn.results import load_result
+    from bbdyn.scenes import redraw_scene, run_scene
+    from bbdyn.scenes.s1_tongues import SceneS1Result
+
+    result, png = run_scene("S1", quick=True, out_dir=tmp_path)
+    assert png.exists() and result.kind == "scene_s1"
+    assert result.meta["max_rel_dev_hi"] <= EDGE_AGREE_REL
+    assert result.meta["max_rel_dev_lo"] <= EDGE_AGREE_REL
+    loaded = load_result(tmp_path / "S1.json")
+    assert isinstance(loaded, SceneS1Result)
+    assert np.array_equal(loaded["gamma_hi_numeric"], result["gamma_hi_numeric"])
+    assert redraw_scene(tmp_path / "S1.json").exists()
