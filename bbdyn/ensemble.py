@@ -21,6 +21,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from bbdyn.billiard import check_params
 from bbdyn.core.status import FAILURES, STATUS_MESSAGES, SimulationError
 from bbdyn.params import Params
 from bbdyn.results import Result, make_meta
@@ -90,15 +91,6 @@ def _periods_phase(times_s: np.ndarray, f: float) -> tuple[np.ndarray, np.ndarra
     return whole, (cycles - whole) * 2.0 * math.pi
 
 
-def check_sliding(params: Params) -> None:
-    """Refuse beta = 1 with alpha < 1: the particle would slide along an arc (not modelled)."""
-    if params.beta == 1.0 and params.alpha < 1.0:
-        raise ValueError(
-            "beta = 1 with alpha < 1 makes particles slide along the arcs after chattering, "
-            "which is not modelled; use beta < 1 (e.g. 0.99) or alpha = 1"
-        )
-
-
 def ensemble(
     params: Params,
     *,
@@ -163,7 +155,7 @@ def ensemble(
 
     from bbdyn.core import ensemble as core
 
-    check_sliding(params)
+    check_params(params)
     t = float(t)
     if not (math.isfinite(t) and t > 0):
         raise ValueError(f"t must be a finite time > 0 s, got {t}")

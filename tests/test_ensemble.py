@@ -181,7 +181,7 @@ def test_end_to_end_at_85_2_hz_quick(run85, tmp_path):
 @pytest.mark.parametrize(
     ("kwargs", "message"),
     [
-        ({"params": Params(f=85.2, beta=1.0)}, "slide"),
+        ({"params": Params(f=85.2, beta=1.0)}, "sliding"),
         ({"initial": [[1.0, 0.0, -100.0]]}, "must leave the floor"),
         ({"initial": [[5.0, 0.0, 1.0]]}, "initial s must be in"),
         ({"t": -1.0}, "t must be"),
