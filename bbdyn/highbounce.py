@@ -33,10 +33,10 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit
 
 from bbdyn.core.flat import flat_flight
-from bbdyn.core.plate import TWO_PI, plate_velocity
+from bbdyn.core.highbounce import hb_run, hb_step
+from bbdyn.core.plate import plate_velocity
 from bbdyn.core.status import OK, STATUS_MESSAGES
 from bbdyn.params import Params
 from bbdyn.tongues import tongue_gamma_hi, tongue_gamma_lo
@@ -49,29 +49,6 @@ __all__ = [
     "hb_step",
     "tongue_errors",
 ]
-
-
-@njit(cache=True)
-def hb_step(phase, V, gamma, alpha):
-    """One bounce of the dissipative standard map; returns ``(phase' mod 2 pi, V')``."""
-    phase_new = (phase + V) % TWO_PI
-    return phase_new, alpha * V - 2.0 * (1.0 + alpha) * gamma * math.cos(phase_new)
-
-
-@njit(cache=True)
-def hb_run(phase, V, gamma, alpha, out_phase, out_V):
-    """Iterate ``hb_step`` and write the phases and velocities into ``out_*`` (in place).
-
-    Stops early (returns the count written) when ``V <= 0``: the ball would not
-    leave the plate, which the approximation cannot describe.
-    """
-    for i in range(out_phase.shape[0]):
-        phase, V = hb_step(phase, V, gamma, alpha)
-        if not V > 0.0:
-            return i
-        out_phase[i] = phase
-        out_V[i] = V
-    return out_phase.shape[0]
 
 
 def hb_jacobian(phase_next: float, gamma: float, alpha: float) -> np.ndarray:

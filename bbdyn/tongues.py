@@ -25,11 +25,11 @@ import math
 from typing import NamedTuple
 
 import numpy as np
-from numba import njit
 
-from bbdyn.core.flat import flat_event, flat_flight
-from bbdyn.core.plate import TWO_PI, advance_phase, sin_minus_x
-from bbdyn.core.status import IMPACT, NON_FINITE, OK, STATUS_MESSAGES
+from bbdyn.core.flat import flat_event
+from bbdyn.core.flat_jacobian import flat_map_jacobian
+from bbdyn.core.plate import TWO_PI, advance_phase
+from bbdyn.core.status import IMPACT, OK, STATUS_MESSAGES
 from bbdyn.core.tolerances import (
     BOUNDARY_RTOL,
     FD_STEP_REL,
@@ -161,56 +161,7 @@ def params_at_gamma(gamma: float, *, alpha: float, A: float = 0.1, g: float = 98
     return Params(f=float(frequency_at_gamma(gamma, A, g)), A=A, g=g, alpha=alpha)
 
 
-# ---- Jacobian of the exact map --------------------------------------------------------------
-@njit(cache=True)
-def flat_map_jacobian(phase, vrel, kp):
-    """One impact of the exact map and its Jacobian in ``(theta, vrel)``.
-
-    Implicit function theorem on the gap ``G(tau; theta, vrel) = vrel tau - g tau^2/2
-    - rise(tau; theta) = 0`` (``core/flat.py``): ``dG/dtau = vrel-``,
-    ``dG/dvrel = tau``, ``dG/dtheta = -(u(t+tau) - u(t) - a(t) tau) / w`` with the
-    plate acceleration ``a = A w^2 sin(w t)``.  Differences of plate velocities
-    and accelerations are written without cancellation, so short (chattering)
-    flights are as accurate as long ones.
-
-    Returns
-    -------
-    dphase : float
-        Phase advance ``w tau`` (rad, not reduced mod 2 pi: the "lifted" map).
-    vrel_new : float
-        ``-alpha vrel-`` (mm/s).
-    jac : ndarray (2, 2)
-        ``d(theta + dphase, vrel_new) / d(theta, vrel)``.
-    status : int
-        ``OK``, a status of ``flat_flight``, or ``NON_FINITE`` for a grazing landing
-        (``vrel- = 0``, where the map is not differentiable).
-    """
-    jac = np.full((2, 2), np.nan)
-    tau, vrel_minus, status = flat_flight(phase, vrel, kp)
-    if status != OK:
-        return math.nan, math.nan, jac, status
-    if vrel_minus == 0.0:
-        return math.nan, math.nan, jac, NON_FINITE
-    A, w, g = kp.A, kp.w, kp.g
-    x = w * tau
-    s0 = math.sin(phase)
-    c0 = math.cos(phase)
-    sin_x = math.sin(x)
-    sin_half = math.sin(0.5 * x)
-    a1 = A * w * w * math.sin(phase + x)
-    # u(t+tau) - u(t) - a(t) tau, and a(t+tau) - a(t)
-    du_lin = A * w * (2.0 * c0 * sin_half * sin_half + s0 * sin_minus_x(x))
-    da = A * w * w * (c0 * sin_x - 2.0 * s0 * sin_half * sin_half)
-    dtau_dtheta = du_lin / (w * vrel_minus)
-    dtau_dvrel = -tau / vrel_minus
-    jac[0, 0] = 1.0 + w * dtau_dtheta
-    jac[0, 1] = w * dtau_dvrel
-    # vrel- = vrel - g tau - (u(t+tau) - u(t))
-    jac[1, 0] = kp.alpha * ((g + a1) * dtau_dtheta + da / w)
-    jac[1, 1] = -kp.alpha * (1.0 - (g + a1) * dtau_dvrel)
-    return x, -kp.alpha * vrel_minus, jac, OK
-
-
+# ---- Jacobian of the exact map: bbdyn.core.flat_jacobian.flat_map_jacobian ------------
 def map_jacobian(params: Params, phase: float, vrel: float) -> np.ndarray:
     """Jacobian (2, 2) of the exact map at ``(phase, vrel)`` (rad, mm/s), lifted phase.
 

@@ -9,8 +9,8 @@ import pytest
 import sympy as sp
 
 from bbdyn import Params
+from bbdyn.core.flat_jacobian import flat_map_jacobian
 from bbdyn.tongues import (
-    flat_map_jacobian,
     k1_cos_phase,
     k1_trace,
     k1_velocity,

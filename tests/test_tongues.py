@@ -7,12 +7,12 @@ import pytest
 
 from bbdyn import Params
 from bbdyn.core.flat import flat_event, flat_flight, flat_run
+from bbdyn.core.flat_jacobian import flat_map_jacobian
 from bbdyn.core.status import IMPACT, OK, STICK
 from bbdyn.core.tolerances import FD_AGREE_REL, FD_STEP_REL, ORBIT_NEWTON_TOL
 from bbdyn.tongues import (
     OrbitNotFound,
     find_periodic_orbit,
-    flat_map_jacobian,
     gamma_hi_numeric,
     gamma_lo_numeric,
     k1_orbit,
