@@ -1,0 +1,170 @@
+"""Named hard cases of the billiard kernel (issue 3)."""
+
+import math
+
+import pytest
+from scipy.optimize import brentq
+
+from bbdyn import Params
+from bbdyn.billiard import simulate
+from bbdyn.core.billiard import billiard_event, billiard_flight, collide, flight_gap
+from bbdyn.core.floor import bounce, floor_height_rel
+from bbdyn.core.status import IMPACT, OK, RELEASE, STICK, STUCK_FOREVER
+from bbdyn.core.tolerances import EPS, WEDGE_TOL
+
+TWO_PI = 2.0 * math.pi
+STATIC = Params(f=50.0, A=0.0)  # a floor at rest: parabolas are exact, answers analytic
+SKP = STATIC.kernel()
+
+
+def _b_global(x):
+    """Floor height at global x (tile 0 starts at x = 0)."""
+    tile = math.floor(x / STATIC.d)
+    return floor_height_rel(x - (tile + 0.5) * STATIC.d, SKP)
+
+
+@pytest.mark.parametrize(
+    "delta",
+    [1e-9, -1e-9, 1e-12, -1e-12],
+    ids=["miss-1e-9", "touch-1e-9", "miss-1e-12", "touch-1e-12"],
+)
+def test_grazing_bump_top(delta):
+    """A parabola flatter than the arc (vx^2 > g R) with its apex delta above the top of tile 1.
+
+    Near the top the gap is ``delta + (x - x_t)^2 (1/R - g/vx^2) / 2``: for delta > 0 the
+    particle passes tile 1 untouched; for delta < 0 it hits tile 1 first at
+    ``x_t - sqrt(2 |delta| / (1/R - g/vx^2))``.
+    """
+    p, kp = STATIC, SKP
+    vx = 1500.0
+    x_top = 1.5 * p.d
+    apex = floor_height_rel(0.0, kp) + delta  # h without the cancellation of R - c0
+
+    def parabola_minus_floor(x):
+        return apex - p.g * (x - x_top) ** 2 / (2 * vx**2) - _b_global(x)
+
+    x0 = brentq(parabola_minus_floor, 0.5 * p.d, p.d, xtol=1e-15)  # launch on tile 0
+    vy0 = p.g * (x_top - x0) / vx
+    tau, k, xi, _, _, status = billiard_flight(0.0, x0 - 0.5 * p.d, vx, vy0, kp)
+    assert status == OK
+    if delta > 0:
+        assert k >= 2, "touched the bump it should just miss"
+    else:
+        assert k == 1
+        curv = 1 / p.R - p.g / vx**2
+        expected = -math.sqrt(2 * abs(delta) / curv)
+        assert math.isclose(xi, expected, rel_tol=1e-4), (xi, expected)
+
+
+@pytest.mark.parametrize("side", [-1.0, 1.0], ids=["left-of-wedge", "right-of-wedge"])
+def test_impact_within_1e12_of_wedge(side):
+    """A parabola aimed 1e-12 mm beside the wedge at x = 2d lands there, on the right arc."""
+    p, kp = STATIC, SKP
+    x1 = 2 * p.d + side * 1e-12
+    xi0 = -0.3
+    x0 = 0.5 * p.d + xi0
+    T = 0.05
+    vx = (x1 - x0) / T
+    vy = (_b_global(x1) - floor_height_rel(xi0, kp) + 0.5 * p.g * T * T) / T
+    tau, k, xi, _, _, status = billiard_flight(0.0, xi0, vx, vy, kp)
+    assert status == OK
+    assert k == (1.0 if side < 0 else 2.0)
+    assert abs((k + 0.5) * p.d + xi - x1) <= 1e-14
+    assert abs(xi) < p.d / 2 - WEDGE_TOL * p.d  # not snapped: it is beside the wedge
+    assert math.isclose(tau, T, rel_tol=1e-12)
+
+
+def test_wedge_rule_reflects_on_neighbour():
+    """At the wedge, a velocity sent into the neighbouring arc is reflected there too.
+
+    Incoming (100, -5) mm/s at the right wedge of tile 0: the arc of tile 0 turns it
+    into (99, -3.5), which points into tile 1's arc; the final velocity is the
+    composition of both reflections and leaves both arcs.
+    """
+    kp = Params(f=85.2).kernel()
+    half = kp.d / 2
+    out = collide(0.0, 1.0, 0.0, half * (1 - EPS), 100.0, -5.0, kp)
+    assert out[7] == OK and out[6] == IMPACT
+    vx1, vy1, _, _ = bounce(half, 100.0, -5.0, kp)
+    vx2, vy2, _, _ = bounce(-half, vx1, vy1, kp)
+    assert out[2] == 1.0 and out[3] == -half
+    assert math.isclose(out[4], vx2, rel_tol=1e-15) and math.isclose(out[5], vy2, rel_tol=1e-15)
+    assert vx2 * half + vy2 * kp.c0 > 0 and -vx2 * half + vy2 * kp.c0 > 0
+    nxt = billiard_event(*out[:7], kp)
+    assert nxt[7] == OK and nxt[0] * TWO_PI + nxt[1] > 1.0
+
+
+def test_flight_over_1000_tiles_is_cheap():
+    """A 2000 mm flight: the envelope steps cross the tiles, a few dozen steps in all."""
+    kp = Params(f=85.2).kernel()
+    vx, vy = 24000.0, 500.0
+    tau, k, xi, _, n_steps, status = billiard_flight(0.3, 0.1, vx, vy, kp)
+    assert status == OK
+    assert k >= 1000
+    assert n_steps <= 60, n_steps
+    assert abs(flight_gap(0.3, 0.1, vx, vy, tau, kp)) <= 1e-12
+    # no earlier contact: the gap is positive on a grid finer than a tile crossing
+    m = 40_000
+    assert all(flight_gap(0.3, 0.1, vx, vy, tau * j / m, kp) > 0 for j in range(1, m))
+
+
+def test_chattering_on_a_slope_matches_incline_closed_form():
+    """Explicit tiny bounces + closed-form tail on the slope at xi = 0.5 (static floor).
+
+    On an incline of normal n with gravity g the sequence from V_n0 (V_t0 = 0) lasts
+    ``2 V_n0 / (g_n (1 - alpha))`` and drifts by ``g_t tau_0^2 [alpha beta /
+    ((1 - alpha^2)(1 - alpha beta)) + 1/(2 (1 - alpha^2))]`` along the tangent.  The arc
+    differs from the incline by relative O(ds / R) = O(1e-6), so the kernel's
+    event-by-event sequence must match to 1e-5.  Gamma = 0: then stuck forever.
+    """
+    p, kp = STATIC, SKP
+    xi0, vn0 = 0.5, 1.0
+    S = math.sqrt(p.R**2 - xi0**2)
+    vx0, vy0 = vn0 * xi0 / p.R, vn0 * S / p.R
+    state = (0.0, 0.0, 0.0, xi0, vx0, vy0, IMPACT)
+    n_impacts = 0
+    while state[6] == IMPACT:
+        out = billiard_event(*state, kp)
+        assert out[7] == OK
+        state = out[:7]
+        n_impacts += state[6] == IMPACT
+    assert state[6] == STICK and n_impacts >= 3  # bounces explicitly before the closed form
+    g_n, g_t = p.g * S / p.R, p.g * xi0 / p.R
+    a, b = p.alpha, p.beta
+    tau0 = 2 * vn0 / g_n
+    t_expected = tau0 / (1 - a)
+    ds = g_t * tau0**2 * (a * b / ((1 - a * a) * (1 - a * b)) + 0.5 / (1 - a * a))
+    t_stick = (state[0] * TWO_PI + state[1]) / kp.w
+    xi_expected = p.R * math.sin(math.asin(xi0 / p.R) + ds / p.R)
+    assert math.isclose(t_stick, t_expected, rel_tol=1e-5)
+    assert math.isclose(state[3] - xi0, xi_expected - xi0, rel_tol=1e-4)
+    assert billiard_event(*state, kp)[7] == STUCK_FOREVER
+
+
+def test_release_phase():
+    """Every release is at theta_r = pi + asin(1/Gamma), with zero relative velocity."""
+    params = Params(f=85.2)
+    theta_r = math.pi + math.asin(1 / params.gamma)
+    traj = simulate(params, n_events=20_000, s0=0.6, vx0=5.0, vy0=20.0)
+    rel = traj["kind"] == RELEASE
+    assert rel.sum() > 10
+    assert max(abs(traj["phase"][rel] - theta_r)) <= 4 * EPS * theta_r
+    assert (traj["vx"][rel] == 0).all() and (traj["vyrel"][rel] == 0).all()
+
+
+def test_gamma_below_one_terminates():
+    """Gamma < 1: the first stick is final; the run ends with a status, it does not hang."""
+    params = Params(f=45.0)
+    assert params.gamma < 1
+    traj = simulate(params, n_events=10**7, s0=1.0, vx0=3.0, vy0=10.0)
+    assert (
+        traj.meta["status"] == "stuck on the floor for good: Gamma <= 1, the floor never pulls away"
+    )
+    assert traj["kind"][-1] == STICK
+
+
+def test_beta_one_refused():
+    with pytest.raises(ValueError, match="beta = 1 with alpha < 1 is not supported"):
+        simulate(Params(f=85.2, beta=1.0), n_events=10, s0=1.0, vx0=3.0, vy0=10.0)
+    # elastic (alpha = beta = 1) has no chattering and is allowed
+    simulate(Params(f=85.2, alpha=1.0, beta=1.0), n_events=10, s0=1.0, vx0=3.0, vy0=10.0)
