@@ -19,6 +19,7 @@ COMMANDS = {
     "bench": "bench",
     "simulate": "simulate",
     "reproduce": "reproduce",
+    "gk": "gk",
 }
 
 
