@@ -20,6 +20,7 @@ COMMANDS = {
     "simulate": "simulate",
     "reproduce": "reproduce",
     "gk": "gk",
+    "scan": "scan",
 }
 
 
