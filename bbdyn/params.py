@@ -121,8 +121,11 @@ class Params:
 
     @property
     def h(self) -> float:
-        """Bump height h = R - sqrt(R^2 - d^2/4) (mm)."""
-        return self.R - math.sqrt(self.R**2 - self.d**2 / 4)
+        """Bump height h = R - sqrt(R^2 - d^2/4) = (d^2/4) / (R + sqrt(R^2 - d^2/4)) (mm).
+
+        The second form has no cancellation for R >> d (the flat limit).
+        """
+        return (self.d**2 / 4) / (self.R + math.sqrt(self.R**2 - self.d**2 / 4))
 
     @property
     def s_max(self) -> float:
