@@ -353,13 +353,15 @@ _N_BATCHES = 50
 
 
 def _moments(v: np.ndarray, n_batches: int = _N_BATCHES) -> dict[str, float]:
-    """Mean and variance of ``v`` with a batch-means standard error of the mean."""
+    """Mean and variance of ``v`` with batch-means standard errors of both."""
     batches = np.array_split(v, n_batches)
     means = np.array([b.mean() for b in batches])
+    variances = np.array([b.var() for b in batches])
     return {
         "mean_v": float(v.mean()),
         "var_v": float(v.var()),
         "stderr_mean_v": float(means.std(ddof=1) / math.sqrt(n_batches)),
+        "stderr_var_v": float(variances.std(ddof=1) / math.sqrt(n_batches)),
     }
 
 
@@ -548,7 +550,8 @@ def table(result: FlatBenchResult) -> str:
         label = "sticks" if r["method"] == "exact" else "micro-bounces"
         lines.append(
             f"{r['method']:<11} {r['setting']:<28} impacts {r['n_impacts']:>7} "
-            f"distinct phases {r['distinct_phases']:>7} mean v+ {r['mean_v']:.4f} "
-            f"+- {r['stderr_mean_v']:.4f} var {r['var_v']:.2f} {label} {extra}"
+            f"distinct phases {r['distinct_phases']:>7} mean v+ {r['mean_v']:.2f} "
+            f"+- {r['stderr_mean_v']:.2f} var {r['var_v']:.0f} +- {r['stderr_var_v']:.0f} "
+            f"{label} {extra}"
         )
     return "\n".join(lines)
