@@ -21,6 +21,11 @@ from pathlib import Path
 #: scene id -> module under bbdyn.scenes
 SCENES = {
     "S1": "s1_tongues",
+    "S3": "s3_diffusion",
+    "S4": "s4_energy",
+    "S5": "s5_horizontal_energy",
+    "S9": "s9_random_walk",
+    "S10": "s10_green_kubo",
 }
 
 
