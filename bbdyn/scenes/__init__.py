@@ -21,6 +21,10 @@ from pathlib import Path
 #: scene id -> module under bbdyn.scenes
 SCENES = {
     "S1": "s1_tongues",
+    "S2": "s2_geometry",
+    "S6": "s6_phase_space_58",
+    "S7": "s7_phase_space_85",
+    "S8": "s8_orbit_88",
     "S3": "s3_diffusion",
     "S4": "s4_energy",
     "S5": "s5_horizontal_energy",
