@@ -1,0 +1,615 @@
+"""Attractors, basins, ergodicity and the dynamical regime at one frequency (MODEL.md section 5).
+
+``trajectory_features`` runs an ensemble (one or several boxes of initial
+conditions, or given ones) and measures per-trajectory features after a
+transient (``core/features.py``): time averages per block of the averaging
+window, flight-time statistics, impact-phase coherence, the period of the
+vertical impact sequence, creep runs, jumps and a per-particle D.
+``classify_features`` groups the trajectories into attractors, decides
+ergodicity and the regime; ``classify`` does both.  The rules and every
+threshold are in ``Thresholds`` and in docs/classification.md.
+
+The flat ball is the billiard with a flat floor: R -> infinity (R = 1e9 mm
+reproduces the flat map's impact sequence, tests/test_billiard_limits.py), so
+one feature path serves both.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import asdict, dataclass
+
+import numpy as np
+
+from bbdyn.billiard import check_params
+from bbdyn.core.status import FAILURES, STATUS_MESSAGES, SimulationError
+from bbdyn.ensemble import Box, _kernel_states, initial_conditions, reference_box
+from bbdyn.params import Params
+from bbdyn.results import Result, make_meta
+
+__all__ = [
+    "Thresholds",
+    "FeatureResult",
+    "Classification",
+    "trajectory_features",
+    "classify_features",
+    "classify",
+    "REGIMES",
+]
+
+REGIMES = {
+    "a": "trapped: no trap changes, no diffusion",
+    "b(i)": "nonergodic: two or more coexisting attractors",
+    "b(ii)": "phase locked: one attractor, vertical motion locked to the drive",
+    "c": "creeping: long runs of tiny hops, diffusion suppressed",
+    "d": "ergodic intermittent: one attractor, resonant flights and creeps alternate",
+    "other": "one attractor outside (a)-(d)",
+}
+
+#: Block features compared between trajectories (names of FeatureResult.block_values).
+GROUP_FEATURES = ("E_kin", "collision_rate", "stuck_fraction", "tiny_fraction", "jump_rate")
+
+
+@dataclass(frozen=True)
+class Thresholds:
+    """Named thresholds of the classifier (all user-changeable).
+
+    Measurement (used while running; changing them needs a new run):
+
+    tiny : float
+        A flight shorter than ``tiny`` driving periods is a tiny hop (0.1).
+    k_tol : float
+        A flight within ``k_tol`` periods of an integer k is locked to k (0.1; the
+        bumps spread resonant flights by a few hundredths of a period).
+    kmax : int
+        Largest locking number counted (8).
+    pmax : int
+        Largest period of the impact sequence searched (32).
+    hist_width : float
+        Flight-time histogram bin (periods) (0.02); flights beyond 10 periods share
+        the last bin.
+
+    Decision (applied to stored features):
+
+    period_tol : float
+        The vertical impact sequence has period p if collision n and n - p differ by
+        at most this in phase (fraction of 2 pi) and in vyrel (units of g T) over the
+        whole window, with at least ``4 p`` collisions (1e-6).
+    z : float
+        Two time averages agree when they differ by at most ``z`` combined standard
+        errors (from the blocks) plus ``abs_tol`` (4).
+    abs_tol : float
+        Absolute agreement floor in the scaled units of ``GROUP_FEATURES`` (energies
+        in A^2 w^2 / 2, rates per period, fractions) (0.01).  It keeps exactly
+        periodic trajectories (zero fluctuation) together despite rounding.
+    min_members : int
+        Groups smaller than this are not attractors; their members are unsettled (3).
+    trapped_jumps : float
+        Regime (a) when every attractor makes fewer jumps per period (1e-3).
+    lock_min : float
+        An attractor is locked to k when this fraction of its flights is (0.9).
+    mean_lock_tol : float
+        An attractor without tiny hops is also locked to k when its mean flight time is
+        within this of k periods (one collision per k periods on average, as for a
+        period-doubled k/1 orbit whose single flights differ from k) (0.005).
+    creep_min : float
+        An attractor creeps when this fraction of its collisions are tiny hops (0.5).
+    intermittent_min : float
+        Intermittent when both locked flights and tiny hops make at least this
+        fraction of the collisions (0.05) without either reaching its own threshold.
+    ergodic_chi2 : float
+        Ergodic when, for every compared feature, the spread of the time averages
+        over the ensemble is within this factor of their own fluctuations
+        (reduced chi^2 <= ergodic_chi2) (3).
+    max_unsettled : float
+        Ergodicity and the regime need at most this unsettled fraction (0.05).
+    """
+
+    tiny: float = 0.1
+    k_tol: float = 0.1
+    kmax: int = 8
+    pmax: int = 32
+    hist_width: float = 0.02
+    period_tol: float = 1e-6
+    z: float = 4.0
+    abs_tol: float = 0.01
+    min_members: int = 3
+    trapped_jumps: float = 1e-3
+    lock_min: float = 0.9
+    mean_lock_tol: float = 0.005
+    creep_min: float = 0.5
+    intermittent_min: float = 0.05
+    ergodic_chi2: float = 3.0
+    max_unsettled: float = 0.05
+
+    def __post_init__(self) -> None:
+        for name, value in asdict(self).items():
+            if not (math.isfinite(value) and value > 0):
+                raise ValueError(f"{name} must be a finite number > 0, got {value}")
+        for name in ("kmax", "pmax", "min_members"):
+            if int(getattr(self, name)) != getattr(self, name):
+                raise ValueError(f"{name} must be an integer, got {getattr(self, name)}")
+        if not self.k_tol < 0.5:
+            raise ValueError(f"k_tol must be < 0.5 periods, got {self.k_tol}")
+
+
+# ---- features ------------------------------------------------------------------------------
+def _states_from(params, boxes, n, seed, initial, start_phase):
+    """Kernel states and the box index of every initial condition."""
+    if initial is not None:
+        ics = np.array(initial, dtype=float, ndmin=2)
+        if ics.ndim != 2 or ics.shape[1] != 3 or not np.all(np.isfinite(ics)):
+            raise ValueError(f"initial must be a finite (n, 3) array, got shape {ics.shape}")
+        box_index = np.full(ics.shape[0], -1)
+    else:
+        if int(n) != n or n < 1:
+            raise ValueError(f"n must be a positive integer, got {n}")
+        boxes = [reference_box(params)] if boxes is None else list(boxes)
+        if not boxes or not all(isinstance(b, Box) for b in boxes):
+            raise ValueError(f"boxes must be a non-empty list of Box, got {boxes!r}")
+        # box 0 draws exactly as bbdyn.ensemble.ensemble(seed=seed); box j > 0 from (seed, j)
+        seeds = [seed] + [None if seed is None else [seed, j] for j in range(1, len(boxes))]
+        ics = np.concatenate(
+            [initial_conditions(params, int(n), s, b) for s, b in zip(seeds, boxes, strict=True)]
+        )
+        box_index = np.repeat(np.arange(len(boxes)), int(n))
+    # post-collision states at phase start_phase: shift vy so that vyrel = vy - u(start_phase)
+    u0, u1 = -params.A * params.w, -params.A * params.w * math.cos(start_phase)
+    shifted = ics.copy()
+    shifted[:, 2] += u0 - u1
+    states = _kernel_states(params, shifted)
+    states[:, 1] = start_phase
+    return ics, states, box_index, boxes
+
+
+def trajectory_features(
+    params: Params,
+    *,
+    t: float,
+    n: int = 1000,
+    seed=None,
+    boxes: list[Box] | None = None,
+    initial=None,
+    start_phase: float = 0.0,
+    transient: float | None = None,
+    blocks: int = 16,
+    thresholds: Thresholds | None = None,
+    threads: int | None = None,
+) -> FeatureResult:
+    """Per-trajectory features after a transient, computed on the fly.
+
+    Parameters
+    ----------
+    params : Params
+    t : float
+        Simulated time (s).
+    n : int
+        Particles per box (default 1000).
+    seed : int or None
+        Box 0 draws as ``bbdyn.ensemble.initial_conditions(params, n, seed, box)``,
+        box j > 0 with the seed ``[seed, j]``.
+    boxes : list of Box, optional
+        Boxes of post-collision initial conditions (default: the reference box).
+    initial : array (m, 3), optional
+        Explicit ``(s, vx+, vy+)`` instead of boxes.
+    start_phase : float
+        Phase w t (rad, in [0, 2 pi)) of the initial collisions (default 0).
+    transient : float, optional
+        Discarded time (s), default ``t / 2``.
+    blocks : int
+        Blocks of the averaging window (>= 4), for the fluctuations of time averages.
+    thresholds : Thresholds, optional
+        Only the measurement fields are used here.
+    threads : int, optional
+        Numba threads (results do not depend on it).
+
+    Returns
+    -------
+    FeatureResult
+    """
+    import numba
+
+    from bbdyn.core import features as core
+
+    check_params(params)
+    th = Thresholds() if thresholds is None else thresholds
+    t = float(t)
+    if not (math.isfinite(t) and t > 0):
+        raise ValueError(f"t must be a finite time > 0 s, got {t}")
+    if not 0.0 <= start_phase < 2 * math.pi:
+        raise ValueError(f"start_phase must be in [0, 2 pi), got {start_phase}")
+    transient = t / 2 if transient is None else float(transient)
+    if not 0.0 <= transient < t:
+        raise ValueError(f"transient must be in [0, t = {t}) s, got {transient}")
+    if int(blocks) != blocks or blocks < 4:
+        raise ValueError(f"blocks must be an integer >= 4, got {blocks}")
+    p0 = float(math.ceil(transient * params.f))
+    L = float(math.floor((math.floor(t * params.f) - p0) / blocks))
+    if L < 1:
+        raise ValueError(
+            f"need at least {blocks} whole periods after the transient, t is too short"
+        )
+    ics, states, box_index, boxes = _states_from(params, boxes, n, seed, initial, start_phase)
+    m = ics.shape[0]
+    nbins = int(round(10.0 / th.hist_width)) + 1
+    out = {
+        "blocks": np.zeros((m, int(blocks), core.BF_WIDTH)),
+        "hist": np.zeros((m, nbins)),
+        "kcount": np.zeros((m, int(th.kmax) + 1)),
+        "glob": np.zeros((m, core.G_WIDTH)),
+        "mismatch": np.zeros((m, int(th.pmax))),
+    }
+    status = np.zeros(m, dtype=np.int64)
+    end = np.array([p0 + blocks * L, 0.0])
+    old = numba.get_num_threads()
+    if threads is not None:
+        numba.set_num_threads(int(threads))
+    start = time.perf_counter()
+    try:
+        core.run_features(
+            states, params.kernel(), end, p0, L, int(blocks), th.tiny, th.k_tol, int(th.kmax),
+            th.hist_width, out["blocks"], out["hist"], out["kcount"], out["glob"],
+            out["mismatch"], status,
+        )  # fmt: skip
+    finally:
+        numba.set_num_threads(old)
+    wall = time.perf_counter() - start
+    failed = np.flatnonzero(np.isin(status, FAILURES))
+    if failed.size:
+        i = failed[0]
+        raise SimulationError(
+            f"{failed.size} particle(s) failed, e.g. particle {i} from (s, vx, vy) = "
+            f"{tuple(ics[i])}: {STATUS_MESSAGES[int(status[i])]} (status {status[i]})"
+        )
+    out.update(initial=ics, box_index=box_index, status=status)
+    meta = make_meta(
+        params,
+        seed=seed,
+        wall_s=wall,
+        t=t,
+        n=m,
+        transient=transient,
+        window_periods=[p0, p0 + blocks * L],
+        block_periods=L,
+        start_phase=start_phase,
+        boxes=None if initial is not None else [vars(b) for b in boxes],
+        thresholds=asdict(th),
+    )
+    return FeatureResult(out, meta)
+
+
+class FeatureResult(Result):
+    """Per-trajectory features (``core/features.py``) of an ensemble, and how they were run.
+
+    Arrays: ``blocks`` (n, nb, 9), ``hist`` (n, nbins), ``kcount`` (n, kmax + 1),
+    ``glob`` (n, 6), ``mismatch`` (n, pmax), ``initial`` (n, 3) ``(s, vx+, vy+)``,
+    ``box_index`` (n,) (-1 for given initial conditions), ``status`` (n,).
+    """
+
+    kind = "trajectory_features"
+
+    @property
+    def params(self) -> Params:
+        return Params(**self.meta["params"])
+
+    def block_values(self) -> dict[str, np.ndarray]:
+        """Per-block time averages, shape (n, nb) each, in scaled units.
+
+        ``E``, ``E_x``, ``E_y``, ``E_pot``, ``E_kin = E_x + E_y`` in units of A^2 w^2 / 2
+        (MODEL.md reference line); ``collision_rate`` and ``jump_rate`` per driving period;
+        ``stuck_fraction`` of the time; ``tiny_fraction`` and ``locked_fraction`` of the collisions (0 when
+        there is none); ``D`` (mm^2/s) the block's ``dx^2 / (2 L T)``.
+        """
+        from bbdyn.core import features as core
+
+        p = self.params
+        b = self["blocks"]
+        L = self.meta["block_periods"]
+        block_s = L / p.f
+        e_ref = 0.5 * (p.A * p.w) ** 2 if p.A > 0 else 1.0
+        coll = b[..., core.BF_COLL]
+        safe = np.maximum(coll, 1.0)
+        out = {
+            "E_x": b[..., core.BF_EX] / block_s / e_ref,
+            "E_y": b[..., core.BF_EY] / block_s / e_ref,
+            "E_pot": b[..., core.BF_POT] / block_s / e_ref,
+            "stuck_fraction": b[..., core.BF_STUCK] / block_s,
+            "collision_rate": coll / L,
+            "jump_rate": b[..., core.BF_JUMPS] / L,
+            "tiny_fraction": b[..., core.BF_TINY] / safe,
+            "locked_fraction": b[..., core.BF_LOCKED] / safe,
+            "D": b[..., core.BF_DISP] ** 2 / (2.0 * block_s),
+        }
+        out["E_kin"] = out["E_x"] + out["E_y"]
+        out["E"] = out["E_kin"] + out["E_pot"]
+        return out
+
+    def per_particle(self) -> dict[str, np.ndarray]:
+        """Time averages over the window and their standard errors (``name + "_se"``)."""
+        from bbdyn.core import features as core
+
+        nb = self["blocks"].shape[1]
+        out = {}
+        for name, v in self.block_values().items():
+            out[name] = v.mean(axis=1)
+            out[name + "_se"] = v.std(axis=1, ddof=1) / math.sqrt(nb)
+            # first and second half, for the settling test
+            out[name + "_h1"] = v[:, : nb // 2].mean(axis=1)
+            out[name + "_h2"] = v[:, nb // 2 :].mean(axis=1)
+            half = (
+                v[:, : nb // 2].std(axis=1, ddof=1) ** 2 + v[:, nb // 2 :].std(axis=1, ddof=1) ** 2
+            )
+            out[name + "_hse"] = np.sqrt(half / (nb // 2))
+        g = self["glob"]
+        coll = self["blocks"][..., core.BF_COLL].sum(axis=1)
+        safe = np.maximum(coll, 1.0)
+        out["collisions"] = coll
+        out["coherence"] = np.hypot(g[:, core.G_COS], g[:, core.G_SIN]) / safe
+        out["flight_mean"] = g[:, core.G_TF] / safe
+        out["flight_std"] = np.sqrt(
+            np.maximum(g[:, core.G_TF2] / safe - out["flight_mean"] ** 2, 0)
+        )
+        out["creep_runs"] = g[:, core.G_RUNS]
+        out["creep_run_max"] = g[:, core.G_RUNMAX]
+        tiny = self["blocks"][..., core.BF_TINY].sum(axis=1)
+        out["creep_run_mean"] = np.where(
+            g[:, core.G_RUNS] > 0, tiny / np.maximum(g[:, core.G_RUNS], 1), 0
+        )
+        kc = self["kcount"]
+        out["locking_k"] = np.where(kc.sum(axis=1) > 0, np.argmax(kc, axis=1), 0)
+        out["period"] = self.periods(self.meta["thresholds"]["period_tol"])
+        return out
+
+    def periods(self, period_tol: float) -> np.ndarray:
+        """Smallest p <= pmax with mismatch <= period_tol and >= 4 p collisions; 0 if none."""
+        from bbdyn.core import features as core
+
+        coll = self["blocks"][..., core.BF_COLL].sum(axis=1)
+        lags = np.arange(1, self["mismatch"].shape[1] + 1)
+        ok = (self["mismatch"] <= period_tol) & (coll[:, None] >= 4 * lags[None, :])
+        return np.where(ok.any(axis=1), lags[np.argmax(ok, axis=1)], 0)
+
+    def plot(self, ax=None):
+        """Time-averaged energy against tiny-hop fraction, one point per trajectory."""
+        import matplotlib.pyplot as plt
+
+        if ax is None:
+            _, ax = plt.subplots()
+        pp = self.per_particle()
+        ax.errorbar(pp["tiny_fraction"], pp["E"], yerr=pp["E_se"], fmt=".", ms=3, lw=0.5)
+        ax.set(xlabel="tiny-hop fraction", ylabel=r"$\langle E\rangle / (A^2\omega^2/2)$")
+        return ax
+
+
+# ---- attractors, ergodicity, regime ---------------------------------------------------------
+def _agree(a, a_se, b, b_se, th):
+    """Averages agree within fluctuations: ``|a - b| <= z sqrt(se_a^2 + se_b^2) + abs_tol``."""
+    return np.abs(a - b) <= th.z * np.sqrt(a_se**2 + b_se**2) + th.abs_tol
+
+
+def _group(pp, idx, th):
+    """Connected components of the 'agree on every GROUP_FEATURE' graph on particles ``idx``."""
+    from scipy.sparse import csr_matrix
+    from scipy.sparse.csgraph import connected_components
+
+    adj = np.ones((idx.size, idx.size), dtype=bool)
+    for name in GROUP_FEATURES:
+        m, se = pp[name][idx], pp[name + "_se"][idx]
+        adj &= _agree(m[:, None], se[:, None], m[None, :], se[None, :], th)
+    return connected_components(csr_matrix(adj), directed=False)[1]
+
+
+def _character(att, th):
+    """How an attractor moves: 'locked', 'creeping', 'intermittent' or 'irregular'."""
+    k = round(att["flight_mean"])
+    mean_locked = k >= 1 and abs(att["flight_mean"] - k) <= th.mean_lock_tol
+    if att["locked_fraction"] >= th.lock_min or (
+        mean_locked and att["tiny_fraction"] < th.intermittent_min
+    ):
+        return "locked"
+    if att["tiny_fraction"] >= th.creep_min:
+        return "creeping"
+    if min(att["locked_fraction"], att["tiny_fraction"]) >= th.intermittent_min:
+        return "intermittent"
+    return "irregular"
+
+
+def _mode(values):
+    vals, counts = np.unique(values, return_counts=True)
+    return int(vals[np.argmax(counts)])
+
+
+def classify_features(feat: FeatureResult, thresholds: Thresholds | None = None) -> Classification:
+    """Attractors, basins, ergodicity and the regime from stored features (no new run).
+
+    Rules (docs/classification.md): a trajectory is *settled* when every compared time
+    average (``GROUP_FEATURES``) agrees between the first and second half of the window;
+    settled trajectories whose averages pairwise agree (``Thresholds.z``, ``abs_tol``) are
+    linked, and each connected group of at least ``min_members`` is an attractor; the
+    others get label -1 (unsettled).  Basin fractions and the unsettled fraction sum to one.
+    The measurement fields of ``thresholds`` must be those the features were run with.
+    """
+    th = Thresholds(**feat.meta["thresholds"]) if thresholds is None else thresholds
+    run_th = feat.meta["thresholds"]
+    for name in ("tiny", "k_tol", "kmax", "pmax", "hist_width"):
+        if getattr(th, name) != run_th[name]:
+            raise ValueError(
+                f"thresholds.{name} = {getattr(th, name)} differs from the run's {run_th[name]}: "
+                "measurement thresholds need a new run (trajectory_features)"
+            )
+    p = feat.params
+    pp = feat.per_particle()
+    pp["period"] = feat.periods(th.period_tol)
+    n = pp["E"].size
+    settled = np.ones(n, dtype=bool)
+    for name in GROUP_FEATURES:
+        diff = np.abs(pp[name + "_h1"] - pp[name + "_h2"])
+        settled &= diff <= th.z * pp[name + "_hse"] + th.abs_tol
+    labels = np.full(n, -1)
+    idx = np.flatnonzero(settled)
+    if idx.size:
+        comp = _group(pp, idx, th)
+        sizes = np.bincount(comp)
+        order = [c for c in np.argsort(-sizes, kind="stable") if sizes[c] >= th.min_members]
+        for new, c in enumerate(order):
+            labels[idx[comp == c]] = new
+    attractors = []
+    for a in range(labels.max() + 1):
+        mem = np.flatnonzero(labels == a)
+        att = {"fraction": mem.size / n, "members": int(mem.size)}
+        for name in ("E", "E_kin", "E_x", "E_y", "E_pot", "stuck_fraction", "tiny_fraction",
+                     "locked_fraction", "coherence", "flight_mean", "creep_run_mean"):  # fmt: skip
+            att[name] = float(pp[name][mem].mean())
+        att["jump_rate"] = float(pp["jump_rate"][mem].mean() * p.f)  # per second
+        att["collision_rate"] = float(pp["collision_rate"][mem].mean() * p.f)
+        att["creep_run_max"] = int(pp["creep_run_max"][mem].max())
+        att["D"] = float(pp["D"][mem].mean())
+        att["D_se"] = (
+            float(pp["D"][mem].std(ddof=1) / math.sqrt(mem.size)) if mem.size > 1 else math.nan
+        )
+        att["period"] = _mode(pp["period"][mem]) or None
+        att["dominant_k"] = _mode(pp["locking_k"][mem])
+        att["trapped"] = att["jump_rate"] / p.f < th.trapped_jumps
+        att["character"] = _character(att, th)
+        locked = att["character"] == "locked"
+        att["locking_k"] = round(att["flight_mean"]) if locked else None
+        # representative: the member closest to the attractor's median, in units of the spread
+        dev = np.zeros(mem.size)
+        for name in GROUP_FEATURES:
+            v = pp[name][mem]
+            dev += ((v - np.median(v)) / (v.std() + th.abs_tol)) ** 2
+        rep = mem[np.argmin(dev)]
+        att["representative"] = {"index": int(rep), "initial": feat["initial"][rep].tolist()}
+        if feat["box_index"].max() > 0:
+            boxes = feat["box_index"]
+            att["box_fractions"] = [
+                float(np.mean(labels[boxes == b] == a)) for b in np.unique(boxes)
+            ]
+        attractors.append(att)
+    unsettled = float(np.mean(labels == -1))
+
+    # ergodicity: one attractor, few unsettled, time averages spread only by their fluctuations
+    chi2 = {}
+    if idx.size > 1:
+        for name in GROUP_FEATURES:
+            m, se = pp[name][idx], pp[name + "_se"][idx]
+            var = se**2 + (th.abs_tol / th.z) ** 2
+            chi2[name] = float(np.sum((m - m.mean()) ** 2 / var) / (idx.size - 1))
+    ergodic = (
+        len(attractors) == 1
+        and unsettled <= th.max_unsettled
+        and bool(chi2)
+        and max(chi2.values()) <= th.ergodic_chi2
+    )
+    regime, reason = _regime(attractors, unsettled, th)
+    summary = {
+        "f": p.f,
+        "gamma": p.gamma,
+        "regime": regime,
+        "regime_meaning": REGIMES.get(regime, ""),
+        "reason": reason,
+        "ergodic": bool(ergodic),
+        "ergodicity": {
+            "n_attractors": len(attractors),
+            "unsettled_fraction": unsettled,
+            "reduced_chi2": chi2,
+            "max_reduced_chi2": th.ergodic_chi2,
+        },  # fmt: skip
+        "n_attractors": len(attractors),
+        "attractors": attractors,
+        "unsettled_fraction": unsettled,
+        "n": n,
+        "t": feat.meta["t"],
+        "transient": feat.meta["transient"],
+        "seed": feat.meta.get("seed"),
+        "feature_wall_s": feat.meta["wall_s"],
+        "thresholds": asdict(th),
+    }
+    meta = make_meta(p, seed=feat.meta.get("seed"), summary=summary)
+    arrays = {"labels": labels, "initial": feat["initial"], "box_index": feat["box_index"]}
+    for name in ("E", "E_kin", "tiny_fraction", "locked_fraction", "jump_rate",
+                 "stuck_fraction", "D", "period", "locking_k", "coherence"):  # fmt: skip
+        arrays[name] = pp[name]
+    return Classification(arrays, meta)
+
+
+def _regime(attractors, unsettled, th):
+    """Regime label (MODEL.md section 5) and the sentence that decided it."""
+    if not attractors:
+        return "other", "no settled attractor: every trajectory is unsettled (longer t?)"
+    chars = ", ".join(f"{a['character']} ({a['fraction']:.3g})" for a in attractors)
+    note = f"; {unsettled:.3g} unsettled (uncertain)" if unsettled > th.max_unsettled else ""
+    if all(a["trapped"] for a in attractors):
+        return "a", f"every attractor makes < {th.trapped_jumps} jumps per period: {chars}{note}"
+    if len(attractors) >= 2:
+        return "b(i)", f"{len(attractors)} coexisting attractors: {chars}{note}"
+    a = attractors[0]
+    label = {"locked": "b(ii)", "creeping": "c", "intermittent": "d"}.get(a["character"], "other")
+    return label, (
+        f"one attractor, {a['character']}: locked flights {a['locked_fraction']:.3g} "
+        f"(k = {a['dominant_k']}), tiny hops {a['tiny_fraction']:.3g}, "
+        f"jump rate {a['jump_rate']:.3g}/s{note}"
+    )
+
+
+def classify(
+    params: Params,
+    *,
+    t: float = 50.0,
+    n: int = 1000,
+    seed=None,
+    boxes: list[Box] | None = None,
+    initial=None,
+    start_phase: float = 0.0,
+    transient: float | None = None,
+    blocks: int = 16,
+    thresholds: Thresholds | None = None,
+    threads: int | None = None,
+) -> Classification:
+    """Classify the dynamics at ``params``: ``trajectory_features`` then ``classify_features``.
+
+    Examples
+    --------
+    >>> c = classify(Params(f=45.0, R=1e9), t=2.0, n=20, seed=1)   # doctest: +SKIP
+    >>> c.summary["regime"]                                       # doctest: +SKIP
+    'a'
+    """
+    feat = trajectory_features(
+        params, t=t, n=n, seed=seed, boxes=boxes, initial=initial, start_phase=start_phase,
+        transient=transient, blocks=blocks, thresholds=thresholds, threads=threads,
+    )  # fmt: skip
+    out = classify_features(feat, thresholds)
+    out.meta["summary"]["feature_wall_s"] = feat.meta["wall_s"]
+    return out
+
+
+class Classification(Result):
+    """Attractors, basins, ergodicity and regime (``meta["summary"]``, JSON-ready).
+
+    Arrays: ``labels`` (n,) attractor per trajectory (-1 unsettled), ``initial`` (n, 3),
+    ``box_index`` (n,), and per-trajectory time averages used as evidence.
+    """
+
+    kind = "classification"
+
+    @property
+    def summary(self) -> dict:
+        return self.meta["summary"]
+
+    def plot(self, ax=None):
+        """Each trajectory's <E> against its tiny-hop fraction, coloured by attractor."""
+        import matplotlib.pyplot as plt
+
+        if ax is None:
+            _, ax = plt.subplots()
+        lab = self["labels"]
+        for a in np.unique(lab):
+            sel = lab == a
+            name = "unsettled" if a < 0 else f"attractor {a} ({np.mean(sel):.2f})"
+            ax.plot(self["tiny_fraction"][sel], self["E"][sel], "." if a >= 0 else "x", label=name)
+        s = self.summary
+        ax.set(xlabel="tiny-hop fraction", ylabel=r"$\langle E\rangle / (A^2\omega^2/2)$",
+               title=f"f = {s['f']} Hz: regime {s['regime']}, ergodic {s['ergodic']}")  # fmt: skip
+        ax.legend(fontsize=8)
+        return ax
