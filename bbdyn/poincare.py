@@ -240,6 +240,11 @@ def trajectory_pieces(
     from event ``start``, each interval's time as a difference of
     (periods, phase) so that long runs keep their precision.
 
+    A flight ending in STICK also contains the chattering sequence that the kernel
+    sums in closed form (``bbdyn.core.billiard.chatter_sum``, accepted only when it
+    lasts ~1e-8 s or less); it is drawn as one parabola, which passes its last
+    contact by that time (dipping ~1e-14 mm below the floor).
+
     Parameters
     ----------
     result : PoincareResult
