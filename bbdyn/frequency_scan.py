@@ -26,13 +26,23 @@ from __future__ import annotations
 
 import functools
 import math
+from pathlib import Path
 
 import numpy as np
 
 from bbdyn.core.status import STUCK_FOREVER
 from bbdyn.params import Params
+from bbdyn.results import Result, make_meta
 
-__all__ = ["P_FLAG", "diffusion_point", "frequency_grid", "frequency_scan"]
+__all__ = [
+    "P_FLAG",
+    "FrequencyScanScene",
+    "diffusion_point",
+    "frequency_grid",
+    "frequency_scan",
+    "scene_scan",
+    "tongue_intervals",
+]
 
 #: p-value below which a convergence check raises its flag.  Over a 227-point scan
 #: about two points are flagged by chance; a flag asks for a look, not a verdict.
@@ -261,3 +271,144 @@ def frequency_scan(
         scheduler=scheduler,
         progress=progress,
     )
+
+
+# ---- the scan shared by scenes S3, S4 and S5 ------------------------------------------------
+#: Outputs of a scan that the scenes keep (scalars per frequency).
+SCENE_KEYS = (
+    "gamma",
+    "D",
+    "D_err",
+    "D_boot_lo",
+    "D_boot_hi",
+    "D_converged",
+    "trapped",
+    "E",
+    "E_err",
+    "E_x",
+    "E_x_err",
+    "E_y",
+    "E_y_err",
+    "E_pot",
+    "E_pot_err",
+    "E_reference",
+    "energy_stationary",
+    "stuck_fraction",
+    "collision_rate",
+    "events",
+)
+
+
+def scan_folder(settings: dict, seed: int, out_dir=None) -> Path:
+    """Folder of the scan a scene setting needs: ``<out_dir>/scans/diffusion_<digest>``.
+
+    The digest covers the grid, n, t, transient, seed and package version, so scenes
+    with the same setting share one scan (S3, S4 and S5 compute it once) and a new
+    version never reuses old numbers.  ``out_dir`` defaults to ``$BBDYN_CACHE`` or
+    ``~/.cache/bbdyn``; ``settings["scan_dir"]`` names a scan folder explicitly.
+    """
+    import hashlib
+    import json
+    import os
+
+    from bbdyn import __version__
+
+    if settings.get("scan_dir"):
+        return Path(settings["scan_dir"])
+    if out_dir is None:
+        out_dir = os.environ.get("BBDYN_CACHE", Path.home() / ".cache" / "bbdyn")
+    keys = ("f_start", "f_stop", "f_step", "n", "t", "transient")
+    defining = {k: settings.get(k) for k in keys} | {"seed": seed, "version": __version__}
+    digest = hashlib.sha256(json.dumps(defining, sort_keys=True).encode()).hexdigest()[:12]
+    return Path(out_dir) / "scans" / f"diffusion_{digest}"
+
+
+def scene_scan(settings: dict, seed: int, out_dir=None):
+    """The scan of a scene setting: loaded if finished, else computed (or resumed)."""
+    folder = scan_folder(settings, seed, out_dir)
+    if settings.get("scan_dir"):
+        from bbdyn.scan import load_scan
+
+        return load_scan(folder)
+    grid = frequency_grid(settings["f_start"], settings["f_stop"], settings["f_step"])
+    return frequency_scan(
+        grid,
+        out_dir=folder,
+        seed=seed,
+        n=settings["n"],
+        t=settings["t"],
+        transient=settings.get("transient"),
+        workers=settings.get("workers"),
+        progress=settings.get("progress", False),
+    )
+
+
+def tongue_intervals(params: Params, f_lo: float, f_hi: float, kmax: int = 6) -> np.ndarray:
+    """k/1 tongue intervals of the flat ball (closed form) meeting ``[f_lo, f_hi]``, Hz.
+
+    Returns
+    -------
+    array, shape (m, 3)
+        Rows ``(k, f_start, f_stop)``.
+    """
+    from bbdyn.tongues import tongue_table
+
+    table = tongue_table(params.alpha, kmax, params.A, params.g, numeric=False)
+    rows = [
+        (float(k), float(a), float(b))
+        for k, a, b in zip(table["k"], table["f_lo_hz"], table["f_hi_hz"], strict=True)
+        if b >= f_lo and a <= f_hi
+    ]
+    return np.array(rows).reshape(-1, 3)
+
+
+class FrequencyScanScene(Result):
+    """Scalars of a frequency scan for scenes S3-S5 (arrays ``f`` and ``SCENE_KEYS``, each
+    (n_f,)) with the k/1 tongue intervals ``tongues`` (m, 3): ``(k, f_lo, f_hi)`` in Hz."""
+
+    kind = "frequency_scan_scene"
+
+    @classmethod
+    def from_scan(cls, scan, params: Params, **meta) -> FrequencyScanScene:
+        """Keep the scenes' outputs of ``scan`` and add the tongue intervals."""
+        f = scan.values
+        arrays = {"f": f} | {k: scan[k] for k in SCENE_KEYS}
+        arrays["tongues"] = tongue_intervals(params, float(f.min()), float(f.max()))
+        cpu = float(sum(p["wall_s"] for p in scan.meta["points"]))
+        return cls(
+            arrays,
+            make_meta(
+                params,
+                scan_seed=scan.meta["seed"],
+                scan_compute=scan.meta["compute"],
+                scan_cpu_s=cpu,
+                events_per_cpu_s=float(np.sum(scan["events"]) / cpu) if cpu else math.nan,
+                **meta,
+            ),
+        )
+
+    def plot(self, ax=None, key: str = "D"):
+        """``key`` (``"D"``, ``"E"``, ``"E_x"``, ...) against f with error bars; the axes."""
+        import matplotlib.pyplot as plt
+
+        if ax is None:
+            _, ax = plt.subplots(figsize=(8, 4))
+        ax.errorbar(self["f"], self[key], yerr=self[key + "_err"], fmt="o-", ms=2.5, lw=0.8,
+                    capsize=1.5, elinewidth=0.8, label=key)  # fmt: skip
+        ax.set_xlabel("f (Hz)")
+        return ax
+
+    def mark_tongues(self, ax) -> None:
+        """Shade the k/1 tongue intervals and label them k/1 at the top of ``ax``."""
+        for k, lo, hi in self["tongues"]:
+            ax.axvspan(lo, hi, color="tab:orange", alpha=0.15, lw=0)
+            ax.text(0.5 * (lo + hi), 1.0, f"{int(k)}/1", transform=ax.get_xaxis_transform(),
+                    ha="center", va="bottom", fontsize=8, color="tab:orange")  # fmt: skip
+
+    def flagged(self) -> dict[str, list[float]]:
+        """Frequencies whose convergence checks raised a flag (see the module docstring)."""
+        f = self["f"]
+        return {
+            "D_windows_disagree": f[self["D_converged"] == 0].tolist(),
+            "energy_not_stationary": f[self["energy_stationary"] == 0].tolist(),
+        }

@@ -1,0 +1,69 @@
+"""Scene S3: the diffusion coefficient D(f) with error bars, k/1 tongues marked on top.
+
+D is the late-window Einstein slope of the reference ensemble (MODEL.md section 3,
+``bbdyn.frequency_scan.diffusion_point``), error bars one standard error over
+particles.  S3, S4 and S5 read one shared scan (``bbdyn.frequency_scan.scene_scan``),
+computed once per setting and seed.  Regime bands (SCENES.md) are drawn when a
+regime classifier provides them (``REGIME_BANDS``); none exists yet.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from bbdyn.frequency_scan import FrequencyScanScene, scene_scan
+from bbdyn.params import Params
+
+TITLE = "Diffusion coefficient D(f) with standard errors and the k/1 tongues"
+QUICK = {"f_start": 49.8, "f_stop": 95.0, "f_step": 1.0, "n": 100, "t": 20.0}
+FULL = {"f_start": 49.8, "f_stop": 95.0, "f_step": 0.2, "n": 1000, "t": 200.0}
+
+#: Hook for regime bands: a function ``scene -> [(f_lo, f_hi, label), ...]`` (Hz), set
+#: by a regime classifier (MODEL.md section 5) when one exists; None draws no bands.
+REGIME_BANDS = None
+
+
+def compute(settings: dict, seed: int = 0, out_dir=None) -> FrequencyScanScene:
+    """The shared scan of ``settings`` (computed or loaded) with S3's key numbers."""
+    scene = FrequencyScanScene.from_scan(scene_scan(settings, seed, out_dir), Params(f=60.0))
+    scene.meta["key_numbers"] = key_numbers(scene)
+    return scene
+
+
+def key_numbers(scene: FrequencyScanScene) -> dict:
+    """Largest D and where, trapped and flagged frequencies, cost."""
+    f, D, err = scene["f"], scene["D"], scene["D_err"]
+    i = int(np.argmax(D))
+    flags = scene.flagged()
+    return {
+        "frequencies": int(f.size),
+        "D_max (mm^2/s)": f"{D[i]:.4g} +- {err[i]:.2g} at f = {f[i]:.2f} Hz",
+        "trapped frequencies (D = 0 exactly)": int(np.sum(scene["trapped"])),
+        "D windows disagree at (Hz)": flags["D_windows_disagree"],
+        "energy not stationary at (Hz)": flags["energy_not_stationary"],
+        "scan CPU time (s)": round(scene.meta["scan_cpu_s"], 1),
+        "events per CPU second": f"{scene.meta['events_per_cpu_s']:.3g}",
+    }
+
+
+def draw(result: FrequencyScanScene, ax=None):
+    """D(f) with error bars, tongue intervals shaded; returns the Figure."""
+    import matplotlib.pyplot as plt
+
+    if ax is None:
+        fig, ax = plt.subplots(figsize=(9, 4.2))
+    else:
+        fig = ax.figure
+    if REGIME_BANDS is not None:
+        for lo, hi, label in REGIME_BANDS(result):
+            ax.axvspan(lo, hi, color="0.85", lw=0)
+            ax.text(0.5 * (lo + hi), 0.95, label, transform=ax.get_xaxis_transform(), ha="center")
+    result.mark_tongues(ax)
+    result.plot(ax, key="D")
+    bad = result["D_converged"] == 0
+    ax.plot(result["f"][bad], result["D"][bad], "rx", ms=6, label="D windows disagree")
+    ax.set_ylabel(r"$D$ (mm$^2$/s)")
+    n, t = result.meta["scan_compute"]["kwargs"]["n"], result.meta["scan_compute"]["kwargs"]["t"]
+    ax.set_title(f"D(f): n = {n} particles, t = {t:g} s, bars: 1 standard error", pad=14)
+    ax.legend(loc="upper left", fontsize=8)
+    return fig

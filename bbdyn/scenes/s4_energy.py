@@ -1,0 +1,49 @@
+"""Scene S4: steady-state total energy E(f) with the reference line A^2 w^2 / 2.
+
+E = (vx^2 + vy^2)/2 + g y averaged over whole driving periods after the transient
+and over the reference ensemble (MODEL.md section 3), error bars one standard
+error over particles.  Reads the scan shared with S3 and S5.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from bbdyn.frequency_scan import FrequencyScanScene, scene_scan
+from bbdyn.params import Params
+from bbdyn.scenes.s3_diffusion import FULL, QUICK
+
+TITLE = "Steady-state energy E(f) and the line A^2 w^2 / 2"
+__all__ = ["TITLE", "QUICK", "FULL", "compute", "draw"]
+
+
+def compute(settings: dict, seed: int = 0, out_dir=None) -> FrequencyScanScene:
+    """The shared scan of ``settings`` with S4's key numbers."""
+    scene = FrequencyScanScene.from_scan(scene_scan(settings, seed, out_dir), Params(f=60.0))
+    ratio = scene["E"] / scene["E_reference"]
+    moving = scene["trapped"] == 0
+    scene.meta["key_numbers"] = {
+        "E / (A^2 w^2/2), non-trapped frequencies": (
+            f"{ratio[moving].min():.3g} to {ratio[moving].max():.3g}" if moving.any() else "none"
+        ),
+        "E_pot / E (median)": f"{np.median(scene['E_pot'] / scene['E']):.3g}",
+        "energy not stationary at (Hz)": scene.flagged()["energy_not_stationary"],
+    }
+    return scene
+
+
+def draw(result: FrequencyScanScene, ax=None):
+    """E(f) with error bars and A^2 w^2 / 2; returns the Figure."""
+    import matplotlib.pyplot as plt
+
+    if ax is None:
+        fig, ax = plt.subplots(figsize=(9, 4.2))
+    else:
+        fig = ax.figure
+    result.mark_tongues(ax)
+    result.plot(ax, key="E")
+    ax.plot(result["f"], result["E_reference"], "k--", lw=1, label=r"$A^2\omega^2/2$")
+    ax.set_ylabel(r"$E$ (kg mm$^2$/s$^2$)")
+    ax.set_title("steady-state energy, period and ensemble average", pad=14)
+    ax.legend(loc="upper left", fontsize=8)
+    return fig

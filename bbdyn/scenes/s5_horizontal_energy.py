@@ -1,0 +1,44 @@
+"""Scene S5: steady-state horizontal kinetic energy E_x(f) = <vx^2/2>.
+
+Averaged over whole driving periods after the transient and over the reference
+ensemble (MODEL.md section 3), error bars one standard error over particles.
+Reads the scan shared with S3 and S4.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from bbdyn.frequency_scan import FrequencyScanScene, scene_scan
+from bbdyn.params import Params
+from bbdyn.scenes.s3_diffusion import FULL, QUICK
+
+TITLE = "Steady-state horizontal kinetic energy E_x(f)"
+__all__ = ["TITLE", "QUICK", "FULL", "compute", "draw"]
+
+
+def compute(settings: dict, seed: int = 0, out_dir=None) -> FrequencyScanScene:
+    """The shared scan of ``settings`` with S5's key numbers."""
+    scene = FrequencyScanScene.from_scan(scene_scan(settings, seed, out_dir), Params(f=60.0))
+    f, ex, err = scene["f"], scene["E_x"], scene["E_x_err"]
+    i = int(np.argmax(ex))
+    scene.meta["key_numbers"] = {
+        "E_x max (kg mm^2/s^2)": f"{ex[i]:.4g} +- {err[i]:.2g} at f = {f[i]:.2f} Hz",
+        "E_x / E (median)": f"{np.median(ex / scene['E']):.3g}",
+    }
+    return scene
+
+
+def draw(result: FrequencyScanScene, ax=None):
+    """E_x(f) with error bars; returns the Figure."""
+    import matplotlib.pyplot as plt
+
+    if ax is None:
+        fig, ax = plt.subplots(figsize=(9, 4.2))
+    else:
+        fig = ax.figure
+    result.mark_tongues(ax)
+    result.plot(ax, key="E_x")
+    ax.set_ylabel(r"$E_x = \langle v_x^2/2 \rangle$ (kg mm$^2$/s$^2$)")
+    ax.set_title("steady-state horizontal kinetic energy", pad=14)
+    return fig
