@@ -11,18 +11,20 @@ jumps between traps, and evaluates at the same parameters
   (``bbdyn.approx.analytic_diffusion``; NaN with a reason where Gamma < 2).
 
 ``gk_numbers`` flattens that into plain numbers; ``gk_point`` is the compute
-function of ``bbdyn.scan.run_scan`` (scenes S9, S10).
+function of ``bbdyn.scan.run_scan`` and ``gk_scan`` runs it over frequencies
+(scenes S9, S10), resumable like ``bbdyn.frequency_scan.frequency_scan``.
 """
 
 from __future__ import annotations
 
+import functools
 import math
 
 import numpy as np
 
 from bbdyn.params import Params
 
-__all__ = ["gk_run", "gk_numbers", "gk_point"]
+__all__ = ["gk_run", "gk_numbers", "gk_point", "gk_scan"]
 
 #: First guess of the stored jumps per particle per simulated second.  Measured jump rates
 #: at the defaults stay below 7 /s (65-95 Hz); a run that overflows is repeated with
@@ -184,9 +186,58 @@ def gk_point(
         n=n,
         t=t,
         nmax=nmax,
-        seed=[int(v) for v in ens_seq.generate_state(4)],
+        seed=ens_seq.generate_state(4).tolist(),
         boot_seed=boot_seed,
         n_boot=n_boot,
         transient=transient,
     )
     return gk_numbers(gk)
+
+
+def _gk_point_mhz(f_mhz: float, seed_sequence: np.random.SeedSequence, **kwargs) -> dict:
+    """``gk_point`` at ``f_mhz / 1000`` Hz (see ``gk_scan`` for why the scan runs in mHz)."""
+    return gk_point(f_mhz / 1000.0, seed_sequence, **kwargs)
+
+
+def gk_scan(
+    frequencies,
+    *,
+    out_dir,
+    seed: int = 0,
+    n: int = 1000,
+    t: float = 200.0,
+    nmax: int = 10,
+    n_boot: int = 1000,
+    resume: bool = True,
+    workers: int | None = None,
+    progress=True,
+):
+    """Run ``gk_point`` over ``frequencies`` (Hz, on a 1 mHz grid) with ``bbdyn.scan.run_scan``.
+
+    Every finished frequency is stored in ``out_dir`` at once; the same call resumes an
+    interrupted scan (docs/scans.md).  Returns the ``ScanResult`` with ``f`` (Hz) and every
+    output of ``gk_numbers`` stacked over frequencies (``D_n``: shape (n_f, nmax + 1)).
+
+    The scanned value is the integer frequency in mHz (``f_mHz``): ``run_scan`` names a
+    point ``f_85.200000000`` and ``Result.save`` cuts that name at its last dot, so
+    points with the same integer part of a non-integer value overwrite each other.
+    Integer values are stored under distinct names.
+    """
+    from bbdyn.scan import run_scan
+
+    f_mhz = np.round(np.asarray(frequencies, dtype=float) * 1000.0)
+    if np.any(np.abs(f_mhz / 1000.0 - np.asarray(frequencies, dtype=float)) > 1e-9):
+        raise ValueError(f"frequencies must lie on a 1 mHz grid, got {list(frequencies)}")
+    kwargs = {"n": int(n), "t": float(t), "nmax": int(nmax), "n_boot": int(n_boot)}
+    scan = run_scan(
+        f_mhz.tolist(),
+        functools.partial(_gk_point_mhz, **kwargs),
+        out_dir=out_dir,
+        seed=seed,
+        resume=resume,
+        workers=workers,
+        progress=progress,
+        name="f_mHz",
+    )
+    scan.arrays["f"] = scan.values / 1000.0
+    return scan
