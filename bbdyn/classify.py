@@ -298,8 +298,8 @@ class FeatureResult(Result):
 
         ``E``, ``E_x``, ``E_y``, ``E_pot``, ``E_kin = E_x + E_y`` in units of A^2 w^2 / 2
         (MODEL.md reference line); ``collision_rate`` and ``jump_rate`` per driving period;
-        ``stuck_fraction`` of the time; ``tiny_fraction`` and ``locked_fraction`` of the collisions (0 when
-        there is none); ``D`` (mm^2/s) the block's ``dx^2 / (2 L T)``.
+        ``stuck_fraction`` of the time; ``tiny_fraction`` and ``locked_fraction`` of the
+        collisions (0 when there is none); ``D`` (mm^2/s) the block's ``dx^2 / (2 L T)``.
         """
         from bbdyn.core import features as core
 
@@ -401,7 +401,9 @@ def _group(pp, idx, th):
 
 
 def _character(att, th):
-    """How an attractor moves: 'locked', 'creeping', 'intermittent' or 'irregular'."""
+    """How an attractor moves: 'at rest', 'locked', 'creeping', 'intermittent' or 'irregular'."""
+    if att["collision_rate"] == 0.0:
+        return "at rest"
     k = round(att["flight_mean"])
     mean_locked = k >= 1 and abs(att["flight_mean"] - k) <= th.mean_lock_tol
     if att["locked_fraction"] >= th.lock_min or (

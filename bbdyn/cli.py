@@ -21,6 +21,7 @@ COMMANDS = {
     "reproduce": "reproduce",
     "gk": "gk",
     "scan": "scan",
+    "classify": "classify",
 }
 
 

@@ -1,0 +1,134 @@
+"""`bbdyn classify F [--n N --t T --seed S --box ...] [--json] [--plot PNG]`: one frequency.
+
+Runs ``bbdyn.classify.classify`` and prints the verdict and its evidence: the
+regime (MODEL.md section 5), ergodicity with its numbers, and each attractor with
+its basin fraction, locking, period, stuck fraction, jump rate, D and energies.
+"""
+
+HELP = "classify the dynamics at one frequency: attractors, basins, ergodicity, regime"
+
+#: Named boxes for ``--box`` (besides explicit numbers).
+BOX_NAMES = ("ref", "high")
+
+
+def add_arguments(parser) -> None:
+    parser.add_argument("f", type=float, help="driving frequency (Hz)")
+    parser.add_argument("--n", type=int, default=1000, help="particles per box (default: 1000)")
+    parser.add_argument("--t", type=float, default=50.0, help="simulated time in s (default: 50)")
+    parser.add_argument("--seed", type=int, default=0, help="random seed (default: 0)")
+    parser.add_argument("--transient", type=float, default=None, help="discarded time (s; t/2)")
+    parser.add_argument(
+        "--box",
+        action="append",
+        default=None,
+        metavar="BOX",
+        help="initial box: 'ref' (MODEL.md reference), 'high' (vy+ in (40, 400] mm/s) or "
+        "'s0,s1,vx0,vx1,vy0,vy1'; repeat for several boxes (default: ref)",
+    )
+    parser.add_argument("--R", type=float, default=None, help="scatterer radius (mm; 1e9: flat)")
+    parser.add_argument("--threads", type=int, default=None, help="numba threads (default: all)")
+    parser.add_argument("--json", action="store_true", help="print one JSON object")
+    parser.add_argument("--plot", default=None, metavar="PNG", help="draw S6/S7/S8-style panels")
+
+
+def parse_box(text: str, params):
+    """A ``Box`` from a name in ``BOX_NAMES`` or six comma-separated numbers."""
+    from bbdyn.ensemble import Box, reference_box
+
+    if text == "ref":
+        return reference_box(params)
+    if text == "high":
+        return Box(s=(0.0, params.s_max), vx=(-40.0, 40.0), vy=(40.0, 400.0))
+    try:
+        v = [float(x) for x in text.split(",")]
+    except ValueError:
+        v = []
+    if len(v) != 6:
+        raise ValueError(f"box must be one of {BOX_NAMES} or 's0,s1,vx0,vx1,vy0,vy1', got {text!r}")
+    return Box(s=(v[0], v[1]), vx=(v[2], v[3]), vy=(v[4], v[5]))
+
+
+def classify_summary(args):
+    """Run the classifier described by ``args``; returns ``(summary dict, Classification)``."""
+    import time
+
+    from bbdyn import Params, __version__
+    from bbdyn.classify import classify
+
+    params = Params(f=args.f) if args.R is None else Params(f=args.f, R=args.R)
+    boxes = [parse_box(b, params) for b in (args.box or ["ref"])]
+    start = time.perf_counter()
+    res = classify(
+        params, t=args.t, n=args.n, seed=args.seed, boxes=boxes, transient=args.transient,
+        threads=args.threads,
+    )  # fmt: skip
+    out = {"version": __version__, "params": params.to_dict(), "boxes": [vars(b) for b in boxes]}
+    out.update(res.summary)
+    out["wall_s"] = time.perf_counter() - start
+    return out, res
+
+
+def plot_attractors(res, path) -> None:
+    """Per attractor: (s, vx+) and (y, vy+) at collisions of its representative (S6/S7/S8 style)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    import numpy as np
+
+    from bbdyn import Params
+    from bbdyn.ensemble import ensemble
+
+    params = Params(**res.meta["params"])
+    atts = res.summary["attractors"]
+    fig, axes = plt.subplots(max(len(atts), 1), 3, figsize=(12, 3.2 * max(len(atts), 1)))
+    axes = np.atleast_2d(axes)
+    res.plot(ax=axes[0, 0])
+    t = res.summary["t"]
+    for a, att in enumerate(atts):
+        run = ensemble(
+            params, t=t, initial=[att["representative"]["initial"]], observables=("record",),
+            record_particles=1, record_window=(res.summary["transient"], t), record_capacity=20000,
+        )  # fmt: skip
+        rec = run["record"][0, : min(run["record_n"][0], 20000)]
+        xi = rec[:, 3]
+        s = params.R * (np.arcsin(xi / params.R) + np.arcsin(params.d / (2 * params.R)))
+        b = np.sqrt(params.R**2 - xi**2) - np.sqrt(params.R**2 - params.d**2 / 4)
+        u = -params.A * params.w * np.cos(rec[:, 1])
+        y = -params.A * np.sin(rec[:, 1]) + b
+        axes[a, 1].plot(s, rec[:, 4], ".", ms=1)
+        axes[a, 1].set(xlabel="s (mm)", ylabel="vx+ (mm/s)", title=f"attractor {a}: (s, vx+)")
+        axes[a, 2].plot(y, rec[:, 5] + u, ".", ms=1)
+        axes[a, 2].set(xlabel="y (mm)", ylabel="vy+ (mm/s)", title=f"{att['character']}: (y, vy+)")
+    fig.tight_layout()
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+
+
+def run(args) -> int:
+    import json
+
+    out, res = classify_summary(args)
+    if args.plot:
+        plot_attractors(res, args.plot)
+    if args.json:
+        print(json.dumps(out, indent=2, default=float))
+        return 0
+    e = out["ergodicity"]
+    print(f"bbdyn {out['version']}  f = {out['f']} Hz (Gamma = {out['gamma']:.4f})  n = {out['n']}"
+          f"  t = {out['t']} s  seed = {out['seed']}")  # fmt: skip
+    print(f"  regime {out['regime']}: {out['regime_meaning']}")
+    print(f"  because {out['reason']}")
+    chi2 = ", ".join(f"{k} {v:.3g}" for k, v in e["reduced_chi2"].items())
+    print(f"  ergodic {out['ergodic']}: {e['n_attractors']} attractor(s), unsettled "
+          f"{e['unsettled_fraction']:.3g}, reduced chi2 [{chi2}] "
+          f"(<= {e['max_reduced_chi2']})")  # fmt: skip
+    for a, att in enumerate(out["attractors"]):
+        print(f"  attractor {a}: fraction {att['fraction']:.3f}, {att['character']}, "
+              f"locking_k {att['locking_k']}, period {att['period']}, "
+              f"stuck {att['stuck_fraction']:.3g}, tiny hops {att['tiny_fraction']:.3g}, "
+              f"locked flights {att['locked_fraction']:.3g}, jump rate {att['jump_rate']:.3g}/s, "
+              f"D {att['D']:.3g} +- {att['D_se']:.2g} mm^2/s, "
+              f"<E> {att['E']:.3g} A^2w^2/2")  # fmt: skip
+    print(f"  wall time {out['wall_s']:.2f} s")
+    return 0

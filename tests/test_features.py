@@ -1,0 +1,138 @@
+"""On-the-fly trajectory features (core/features.py) against a stored collision record.
+
+The ensemble driver (core/ensemble.py) is an independent event loop: its collision
+record, energy integrals and counts are recomputed here into the features, by a
+plain-Python reading of the record, and must agree.
+"""
+
+import math
+
+import numpy as np
+import pytest
+
+from bbdyn import Params
+from bbdyn.classify import Thresholds, trajectory_features
+from bbdyn.core import features as core
+from bbdyn.core.observables import trap_of
+from bbdyn.core.plate import TWO_PI, release_window
+from bbdyn.core.status import STICK
+from bbdyn.core.tolerances import OBS_INTEGRAL_REL_TOL
+from bbdyn.ensemble import ensemble
+
+# f * t and f * transient whole, and the window divisible into the blocks, so that
+# the ensemble's energy window and the features' window coincide
+F, T, TRANSIENT, N, BLOCKS = 85.0, 2.0, 0.4, 12, 17
+
+
+@pytest.fixture(scope="module")
+def runs():
+    params = Params(f=F)
+    feat = trajectory_features(params, t=T, n=N, seed=3, transient=TRANSIENT, blocks=BLOCKS)
+    ens = ensemble(
+        params, t=T, n=N, seed=3, transient=TRANSIENT, observables=("energy", "jumps", "record"),
+        record_particles=N, record_capacity=100_000,
+    )  # fmt: skip
+    return params, feat, ens
+
+
+def _from_record(params, rec, th, p0, p1, nb):
+    """Features of one particle from its collision record (periods, phase, tile, xi, vx, vyrel,
+    kind), with release times reconstructed from the STICK phases."""
+    theta_r, _ = release_window(params.gamma)
+    L = (p1 - p0) / nb
+    hist = np.zeros(int(round(10.0 / th.hist_width)) + 1)
+    out = dict(coll=np.zeros(nb), tiny=np.zeros(nb), jumps=np.zeros(nb), locked=np.zeros(nb))
+    cos = sin = 0.0
+    seq = []
+    dep = 0.0  # the initial condition departs at t = 0 (in periods)
+    trap = None  # the first jump can only be in the transient: no trap before the record
+    for periods, phase, tile, xi, _vx, vyrel, kind in rec:
+        t = periods + phase / TWO_PI
+        flight = t - dep
+        dep = t
+        if kind == STICK:
+            dep = periods + (theta_r if phase <= theta_r else TWO_PI + theta_r) / TWO_PI
+        new_trap = trap_of(tile, xi)
+        jumped = trap is not None and new_trap != trap
+        trap = new_trap
+        if not p0 <= t < p1:
+            continue
+        j = int((periods - p0) // L)
+        out["coll"][j] += 1
+        out["jumps"][j] += jumped
+        k = math.floor(flight + 0.5)
+        out["locked"][j] += 1 <= k <= th.kmax and abs(flight - k) <= th.k_tol
+        out["tiny"][j] += flight < th.tiny
+        hist[min(int(flight / th.hist_width), hist.size - 1)] += 1
+        cos += math.cos(phase)
+        sin += math.sin(phase)
+        seq.append((phase, vyrel, kind))
+    mism = np.full(th.pmax, -np.inf)
+    for p in range(1, th.pmax + 1):
+        for n in range(p, len(seq)):
+            a, b = seq[n], seq[n - p]
+            dph = abs(a[0] - b[0])
+            dph = min(dph, TWO_PI - dph) / TWO_PI
+            m = math.inf if a[2] != b[2] else max(dph, abs(a[1] - b[1]) / (params.g / params.f))
+            mism[p - 1] = max(mism[p - 1], m)
+        if len(seq) <= p:
+            mism[p - 1] = math.inf
+    return out, hist, cos, sin, mism
+
+
+def test_record_is_complete_and_covers_the_hard_cases(runs):
+    """Every collision recorded, and the run has sticks, tiny hops, locked flights, jumps."""
+    _, feat, ens = runs
+    assert np.all(ens["record_n"] <= ens["record"].shape[1])
+    assert np.any(ens["record"][..., 6] == STICK)
+    b = feat["blocks"].sum(axis=(0, 1))
+    assert min(b[core.BF_TINY], b[core.BF_LOCKED], b[core.BF_JUMPS]) > 0
+
+
+def test_counts_and_sequences_equal_the_record(runs):
+    params, feat, ens = runs
+    th = Thresholds(**feat.meta["thresholds"])
+    p0, p1 = feat.meta["window_periods"]
+    assert [p0, p1] == ens.meta["window_periods"]
+    for i in range(N):
+        rec = ens["record"][i, : ens["record_n"][i]]
+        out, hist, cos, sin, mism = _from_record(params, rec, th, p0, p1, BLOCKS)
+        b = feat["blocks"][i]
+        for key, col in (("coll", core.BF_COLL), ("tiny", core.BF_TINY),
+                         ("jumps", core.BF_JUMPS), ("locked", core.BF_LOCKED)):  # fmt: skip
+            np.testing.assert_array_equal(b[:, col], out[key], err_msg=f"{key}, particle {i}")
+        np.testing.assert_array_equal(feat["hist"][i], hist)
+        assert feat["glob"][i, core.G_COS] == pytest.approx(cos, rel=1e-12, abs=1e-9)
+        assert feat["glob"][i, core.G_SIN] == pytest.approx(sin, rel=1e-12, abs=1e-9)
+        np.testing.assert_array_equal(feat["mismatch"][i], mism)
+
+
+def test_block_integrals_sum_to_the_ensemble_integrals(runs):
+    """Energies, stuck time, collisions and jumps over the whole window, two event loops."""
+    params, feat, ens = runs
+    window_s = ens.meta["window_s"]
+    b = feat["blocks"].sum(axis=1)
+    for name, col in (("E_x", core.BF_EX), ("E_y", core.BF_EY), ("E_pot", core.BF_POT)):
+        np.testing.assert_allclose(b[:, col] / window_s, ens[name], rtol=OBS_INTEGRAL_REL_TOL)
+    np.testing.assert_allclose(b[:, core.BF_STUCK] / window_s, ens["stuck_fraction"], atol=1e-12)
+    np.testing.assert_array_equal(b[:, core.BF_COLL], ens["collisions"])
+    np.testing.assert_array_equal(b[:, core.BF_JUMPS], ens["jumps"])
+
+
+def test_block_displacements_add_up_to_the_window_displacement(runs):
+    params, feat, _ = runs
+    p0, p1 = feat.meta["window_periods"]
+    ens = ensemble(
+        params, t=T, n=N, seed=3, transient=TRANSIENT, observables=("displacement",),
+        sample_times=np.array([p0 / F, p1 / F]),
+    )  # fmt: skip
+    total = feat["blocks"][:, :, core.BF_DISP].sum(axis=1)
+    np.testing.assert_allclose(total, np.diff(ens["displacement"], axis=1)[:, 0], atol=1e-9)
+
+
+def test_features_do_not_depend_on_threads():
+    params = Params(f=85.2)
+    a = trajectory_features(params, t=1.0, n=8, seed=5, threads=1)
+    b = trajectory_features(params, t=1.0, n=8, seed=5, threads=2)
+    for key in ("blocks", "hist", "kcount", "glob", "mismatch"):
+        np.testing.assert_array_equal(a[key], b[key])
