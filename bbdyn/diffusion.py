@@ -132,6 +132,13 @@ def per_particle_slopes(times, displacements, window=(0.5, 1.0)):
     -------
     array, shape (n,)
     """
+    return _slopes_and_rounding(times, displacements, window)[0]
+
+
+def _slopes_and_rounding(times, displacements, window):
+    """Per-particle slopes and a bound on their rounding errors (DOT_ROUND_PER_TERM)."""
+    from bbdyn.core.tolerances import DOT_ROUND_PER_TERM
+
     times, disp = _check(times, displacements)
     start, end = (float(v) for v in window)
     if not 0.0 <= start < end <= 1.0:
@@ -140,8 +147,12 @@ def per_particle_slopes(times, displacements, window=(0.5, 1.0)):
     t = times[mask]
     if t.size < 2:
         raise ValueError(f"the window holds {t.size} sample time(s); need at least 2")
-    c = (t - t.mean()) / np.sum((t - t.mean()) ** 2)
-    return (disp[:, mask] ** 2) @ c
+    spread = np.sum((t - t.mean()) ** 2)
+    c = (t - t.mean()) / spread
+    squares = disp[:, mask] ** 2
+    # the weights are rounded relative to the times themselves, not to t - tbar
+    scale = (np.abs(t) + abs(t.mean())) / spread
+    return squares @ c, t.size * DOT_ROUND_PER_TERM * (squares @ scale)
 
 
 def einstein_D_bootstrap(times, displacements, window=(0.5, 1.0), n_boot=2000, seed=None):
@@ -190,8 +201,11 @@ def window_consistency(times, displacements, n_windows=4, start=0.2):
         raise ValueError(f"start must be in [0, 1), got {start}")
     edges = np.linspace(start, 1.0, int(n_windows) + 1)
     pairs = zip(edges[:-1], edges[1:], strict=True)
-    slopes = np.stack([per_particle_slopes(times, disp, w) for w in pairs], axis=1)
+    slopes, rounding = (np.stack(a, axis=1) for a in zip(
+        *(_slopes_and_rounding(times, disp, w) for w in pairs), strict=True))  # fmt: skip
     diff = np.diff(slopes, axis=1)  # (n, n_windows - 1)
+    # differences within rounding are zero: frozen (trapped) particles carry no spread
+    diff[np.abs(diff) <= rounding[:, 1:] + rounding[:, :-1]] = 0.0
     n = diff.shape[0]
     mean = diff.mean(axis=0)
     cov = np.atleast_2d(np.cov(diff, rowvar=False)) / n

@@ -89,3 +89,11 @@ CLOSED_FORM_REL = 16.0 * EPS
 #: magnitude is tangent (alpha = 0 makes V.n = 0 exactly; recomputing it from
 #: (vx, vyrel) leaves a few ulp of either sign).
 DEPARTURE_REL_TOL = 8.0 * EPS
+
+# ---- diffusion estimates (bbdyn.diffusion) -------------------------------------------------
+
+#: A dot product of m terms is exact to m * DOT_ROUND_PER_TERM times the dot product of
+#: the absolute values (Higham's gamma_m = m u / (1 - m u) with u = EPS / 2, doubled for
+#: the rounding of the weights, taken relative to |t| + |tbar|, the size of the numbers
+#: rounded in t - tbar).  Differences of MSD slopes below this are rounding.
+DOT_ROUND_PER_TERM = EPS
