@@ -13,7 +13,7 @@ import json
 HELP = "work-precision benchmark (SCENES.md B2): speed and error against an mpmath reference"
 
 #: target name -> module providing QUICK, FULL, compute, table, draw
-TARGETS = {"flat": "bbdyn.benchmarking.flat"}
+TARGETS = {"flat": "bbdyn.benchmarking.flat", "billiard": "bbdyn.benchmarking.billiard"}
 
 
 def add_arguments(parser) -> None:

@@ -321,6 +321,17 @@ def wedge_reflect(tile, xi, vx, vy, vn, vt, kp):
     return tile, xi, vx, vy, vn, vt, False
 
 
+@njit(cache=True, inline="always")
+def snap_to_wedge(xi, kp):
+    """Put a contact within ``WEDGE_TOL * d`` of a wedge on the wedge (``xi = +-d/2``)."""
+    half = 0.5 * kp.d
+    if xi >= half - WEDGE_TOL * kp.d:
+        return half
+    if xi <= -half + WEDGE_TOL * kp.d:
+        return -half
+    return xi
+
+
 @njit(cache=True)
 def collide(periods, phase, tile, xi, vx, vyrel, kp):
     """Apply the collision at ``(tile, xi)`` and decide whether chattering ends in a stick.
@@ -330,10 +341,7 @@ def collide(periods, phase, tile, xi, vx, vyrel, kp):
     ``(periods, phase, tile, xi, vx, vyrel, kind, status)``.
     """
     half = 0.5 * kp.d
-    if xi >= half - WEDGE_TOL * kp.d:
-        xi = half
-    elif xi <= -half + WEDGE_TOL * kp.d:
-        xi = -half
+    xi = snap_to_wedge(xi, kp)
     vx, vyrel, vn, vt = bounce(xi, vx, vyrel, kp)
     tile, xi, vx, vyrel, vn, vt, ok = wedge_reflect(tile, xi, vx, vyrel, vn, vt, kp)
     if not ok:

@@ -1,0 +1,558 @@
+"""Work-precision benchmark of the billiard (SCENES.md B2, issue 3 item 9).
+
+Speed: collisions per second of the exact kernel (``bbdyn.core.billiard``), single
+thread, median over repeats after compilation: one flight at a time from a set of
+start states on the attractor, a continuous run (``billiard_run_count``, all event
+kinds), and the ensemble (``bbdyn.ensemble.ensemble``) on 2 threads.  A
+*collision* is an IMPACT or a STICK event (a STICK is the impact that starts a
+summed chattering sequence); RELEASE events are not collisions.
+
+Accuracy: *one-step* impact-time errors, as for the flat ball.  Start states are
+the exact kernel's post-event states on the attractor (float64); from each, the
+exact kernel and the fixed-step method (``fixed_step_billiard``) find the next
+contact, and both are compared with an mpmath root (``MP_DPS`` digits) of the
+same flight's gap on the tile of the exact contact
+(``reference_flight``).  The reference refines the contact; that it is the
+*first* one is the exact kernel's guarantee (tested in tests/test_billiard_*.py),
+and a fixed-step contact more than ``WRONG_CONTACT_REL`` of the flight away from
+it is counted as a wrong contact (missed or spurious).
+
+Observables: D and the period-averaged energies of the same small ensemble with
+the exact kernel and with the fixed-step method at one frequency, with standard
+errors (independent chaotic runs: the difference's error is the quadrature sum).
+
+Profile: per frequency, collisions per second of a continuous run, safe steps
+per flight and the share of STICK events (summed chattering sequences).
+"""
+
+from __future__ import annotations
+
+import math
+import sys
+import time
+from typing import Any
+
+import numpy as np
+from numba import njit
+
+from bbdyn.benchmarking.fixed_step_billiard import (
+    fixed_step_billiard_one_step,
+    fixed_step_ensemble,
+)
+from bbdyn.benchmarking.timing import measure, single_thread
+from bbdyn.core.billiard import (
+    billiard_event,
+    billiard_flight,
+    billiard_run,
+    billiard_run_count,
+    snap_to_wedge,
+)
+from bbdyn.core.floor import bounce
+from bbdyn.core.status import IMPACT, OK, STICK, raise_for_status
+from bbdyn.core.tolerances import EPS, ROOT_STEP_REL
+from bbdyn.params import Params
+from bbdyn.results import Result, make_meta
+
+__all__ = [
+    "CASE",
+    "QUICK",
+    "FULL",
+    "MP_DPS",
+    "BilliardBenchResult",
+    "attractor_states",
+    "exact_one_step",
+    "reference_flight",
+    "flight_profile",
+    "compute",
+    "draw",
+    "table",
+]
+
+#: The benchmark case: MODEL.md defaults at f = 85.2 Hz (the S7 frequency, ergodic
+#: intermittent regime); the start state goes through ``transient`` events first.
+CASE = {"f": 85.2, "start": (0.0, 0.0, 0.0, 0.3, 10.0, 40.0, IMPACT), "transient": 20_000}
+
+#: Digits of the mpmath reference (a contact time of ~1e-2 s to ~1e-40 s).
+MP_DPS = 40
+
+#: A flight whose time differs from the reference by more than this fraction of
+#: it, and by more than the method's final bracket ``dt_min`` (a fixed-step
+#: contact is late by less than that), ended at a different contact.
+WRONG_CONTACT_REL = 0.01
+
+QUICK: dict[str, Any] = {
+    "n_impacts": 60,
+    "fixed": [(1e-4, 1e-6), (1e-4, 1e-8)],
+    "continuous_events": 200_000,
+    "ensemble": {"n": 200, "t": 5.0, "threads": 2},
+    "observables": {"n": 24, "t": 4.0, "seed": 1, "fixed": [(1e-4, 1e-6)]},
+    "profile_f": [58.0, 85.2],
+    "profile_events": 100_000,
+    "repeats": 3,
+    "min_time": 0.02,
+}
+FULL: dict[str, Any] = {
+    "n_impacts": 400,
+    "fixed": [(1e-4, 1e-6), (1e-5, 1e-6), (1e-4, 1e-7), (1e-4, 1e-8), (1e-4, 1e-10)],
+    "continuous_events": 2_000_000,
+    "ensemble": {"n": 1000, "t": 20.0, "threads": 2},
+    "observables": {"n": 200, "t": 40.0, "seed": 1, "fixed": [(1e-4, 1e-6), (1e-5, 1e-6)]},
+    "profile_f": [58.0, 70.0, 85.2, 88.4, 95.0],
+    "profile_events": 1_000_000,
+    "repeats": 5,
+    "min_time": 0.2,
+}
+
+
+def attractor_states(params: Params, n_events: int) -> dict[str, np.ndarray]:
+    """``n_events`` consecutive events of the exact kernel after ``CASE``'s transient.
+
+    Returns arrays ``periods, phase, tile, xi, vx, vyrel, kind`` (shape ``(n_events,)``).
+    """
+    kp = params.kernel()
+    out = billiard_run_count(*CASE["start"], kp, CASE["transient"])
+    raise_for_status(out[8], "billiard benchmark transient")
+    names = ("periods", "phase", "tile", "xi", "vx", "vyrel", "kind")
+    arrays = {k: np.empty(n_events) for k in names[:-1]}
+    arrays["kind"] = np.empty(n_events, dtype=np.int64)
+    n_done, status = billiard_run(*out[:7], kp, *arrays.values())
+    raise_for_status(status, "billiard benchmark states")
+    return {k: v[:n_done] for k, v in arrays.items()}
+
+
+@njit(cache=True)
+def exact_one_step(starts, kp, out_tau, out_k, out_xi, out_vx, out_vy):
+    """``billiard_flight`` then the restitution law from each start (rows ``phase, xi, vx, vyrel``).
+
+    Writes the flight time (s), tile offset, contact ``xi`` (mm) and the absolute
+    post-impact velocity (mm/s, before any chattering decision) in place; returns
+    the first failure status or ``OK``.
+    """
+    for i in range(starts.shape[0]):
+        phase = starts[i, 0]
+        tau, k, xi, vym, _, status = billiard_flight(
+            phase, starts[i, 1], starts[i, 2], starts[i, 3], kp
+        )
+        if status != OK:
+            return status
+        xi = snap_to_wedge(xi, kp)
+        vx, vyrel, _, _ = bounce(xi, starts[i, 2], vym, kp)
+        out_tau[i] = tau
+        out_k[i] = k
+        out_xi[i] = xi
+        out_vx[i] = vx
+        out_vy[i] = vyrel - kp.A * kp.w * math.cos(phase + kp.w * tau)
+    return OK
+
+
+@njit(cache=True)
+def _continuous(state, kp, n_events):
+    """Status of ``n_events`` events of ``billiard_event`` from ``state`` (for timing)."""
+    return billiard_run_count(
+        state[0], state[1], state[2], state[3], state[4], state[5], int(state[6]), kp, n_events
+    )[8]
+
+
+@njit(cache=True)
+def flight_profile(state, kp, n_events):
+    """Cost profile of ``n_events`` events from ``state``.
+
+    Returns ``(steps, flights, collisions, sticks, status)``: safe steps summed over
+    flights, flights, collisions (IMPACT or STICK) and STICK events.
+    """
+    periods, phase, tile, xi, vx, vyrel = state[0], state[1], state[2], state[3], state[4], state[5]
+    kind = int(state[6])
+    steps = 0
+    flights = 0
+    collisions = 0
+    sticks = 0
+    for _ in range(n_events):
+        if kind != STICK:
+            steps += billiard_flight(phase, xi, vx, vyrel, kp)[4]
+            flights += 1
+        periods, phase, tile, xi, vx, vyrel, kind, status = billiard_event(
+            periods, phase, tile, xi, vx, vyrel, kind, kp
+        )
+        if status != OK:
+            return steps, flights, collisions, sticks, status
+        if kind != 2:  # IMPACT or STICK
+            collisions += 1
+        if kind == STICK:
+            sticks += 1
+    return steps, flights, collisions, sticks, OK
+
+
+def reference_flight(kp, phase, xi0, vx, vyrel, k, tau_guess, dps: int = MP_DPS):
+    """Contact time of one flight in mpmath, on tile offset ``k``, near ``tau_guess``.
+
+    The gap (MODEL.md section 2, ``Y(x, t)``) with every input the float64 value
+    given (parameters of ``kp`` included):
+
+        G(tau) = (vyrel + u) tau - g tau^2/2 - [y_p(t + tau) - y_p(t)]
+                 - [sqrt(R^2 - xi(tau)^2) - sqrt(R^2 - xi0^2)],  xi(tau) = xi0 + vx tau - k d
+
+    is bracketed around ``tau_guess`` (widening until it changes sign) and solved
+    by bisection-safeguarded Anderson iteration.
+
+    Returns
+    -------
+    tau, vx_plus, vy_plus : float
+        Contact time (s) and absolute post-impact velocity (mm/s), rounded to float64.
+    """
+    import mpmath as mp
+
+    with mp.workdps(dps):
+        A, w, g, R, d = (mp.mpf(v) for v in (kp.A, kp.w, kp.g, kp.R, kp.d))
+        al, be = mp.mpf(kp.alpha), mp.mpf(kp.beta)
+        th, x0, ux, uy = mp.mpf(phase), mp.mpf(xi0), mp.mpf(vx), mp.mpf(vyrel)
+        kk = mp.mpf(k)
+        u0 = -A * w * mp.cos(th)
+        S0 = mp.sqrt(R * R - x0 * x0)
+
+        def gap(t):
+            xi = x0 + ux * t - kk * d
+            rise = -A * mp.sin(th + w * t) + A * mp.sin(th)
+            return (uy + u0) * t - g * t * t / 2 - rise - (mp.sqrt(R * R - xi * xi) - S0)
+
+        tg = mp.mpf(tau_guess)
+        delta = max(tg * mp.mpf(2) ** -50, mp.mpf(10) ** -30)
+        lo, hi = tg - delta, tg + delta
+        for _ in range(200):
+            if gap(lo) > 0 and gap(hi) <= 0:
+                break
+            delta *= 2
+            lo, hi = max(tg - delta, mp.mpf(0)), tg + delta
+        else:
+            return math.nan, math.nan, math.nan
+        tau = mp.findroot(gap, (lo, hi), solver="anderson")
+        xi = x0 + ux * tau - kk * d
+        S = mp.sqrt(R * R - xi * xi)
+        vyr = uy - g * tau - (-A * w * mp.cos(th + w * tau) - u0)
+        vn = (ux * xi + vyr * S) / R
+        vt = (ux * S - vyr * xi) / R
+        vn, vt = -al * vn, be * vt
+        vx_p = (vn * xi + vt * S) / R
+        vy_p = (vn * S - vt * xi) / R - A * w * mp.cos(th + w * tau)
+        return float(tau), float(vx_p), float(vy_p)
+
+
+def _start_array(states) -> np.ndarray:
+    """Rows ``(phase, xi, vx, vyrel)`` of the flights that start at the states (not STICKs)."""
+    keep = states["kind"] != STICK
+    return np.column_stack([states[k][keep] for k in ("phase", "xi", "vx", "vyrel")])
+
+
+def _reference(kp, starts, k, tau) -> np.ndarray:
+    """mpmath reference ``(tau, vx+, vy+)`` for every start, on the exact contact's tile."""
+    ref = np.empty((starts.shape[0], 3))
+    for i in range(starts.shape[0]):
+        ref[i] = reference_flight(kp, *starts[i], k[i], tau[i])
+    return ref
+
+
+def _errors(ref, tau, vx, vy, dt_min=0.0) -> dict[str, Any]:
+    dt = np.abs(tau - ref[:, 0])
+    dv = np.hypot(vx - ref[:, 1], vy - ref[:, 2])
+    wrong = dt > np.maximum(WRONG_CONTACT_REL * ref[:, 0], dt_min)
+    return {
+        "wrong_contacts": int(np.count_nonzero(wrong)),
+        "max_time_error_s": float(dt[~wrong].max()) if np.any(~wrong) else math.nan,
+        "median_time_error_s": float(np.median(dt[~wrong])) if np.any(~wrong) else math.nan,
+        "max_velocity_error": float(dv[~wrong].max()) if np.any(~wrong) else math.nan,
+    }
+
+
+#: Flights per timed call of the one-step loops.
+_TILE = 20_000
+
+
+def _bench_exact(kp, states, starts, ref, settings) -> list[dict[str, Any]]:
+    n = starts.shape[0]
+    out = [np.empty(n) for _ in range(5)]
+    raise_for_status(exact_one_step(starts, kp, *out), "exact one-step")
+    tau, _, _, vx, vy = out
+    errors = _errors(ref, tau, vx, vy)
+    reps = -(-_TILE // n)
+    tiled = np.ascontiguousarray(np.tile(starts, (reps, 1)))
+    scratch = [np.empty(n * reps) for _ in range(5)]
+    timing = measure(
+        lambda: exact_one_step(tiled, kp, *scratch),
+        repeats=settings["repeats"],
+        min_time=settings["min_time"],
+    )
+    rate = timing.per_second(n * reps)
+    rows = [
+        {
+            "method": "exact",
+            "setting": f"one flight + impact law (ROOT_STEP_REL = {ROOT_STEP_REL / EPS:g} eps)",
+            "impacts_per_s": rate,
+            "collisions_per_s": rate,
+            **errors,
+        }
+    ]
+    n_events = int(settings["continuous_events"])
+    state = np.array([states[k][0] for k in ("periods", "phase", "tile", "xi", "vx", "vyrel")])
+    state = np.append(state, states["kind"][0])
+    profile = flight_profile(state, kp, n_events)
+    raise_for_status(profile[4], "exact continuous run")
+    timing = measure(
+        lambda: raise_for_status(_continuous(state, kp, n_events), "exact continuous run"),
+        repeats=settings["repeats"],
+        min_time=settings["min_time"],
+    )
+    rows.append(
+        {
+            "method": "exact",
+            "setting": f"continuous run, {n_events} events, 1 thread",
+            "impacts_per_s": timing.per_second(profile[2]),
+            "collisions_per_s": timing.per_second(profile[2]),
+            "events_per_s": timing.per_second(n_events),
+            "steps_per_flight": profile[0] / profile[1],
+            "stick_share": profile[3] / profile[2],
+            "max_time_error_s": errors["max_time_error_s"],
+            "max_velocity_error": errors["max_velocity_error"],
+        }
+    )
+    return rows
+
+
+def _bench_ensemble(params, settings) -> dict[str, Any]:
+    """Collisions per second of ``bbdyn.ensemble.ensemble`` (reference box, no transient)."""
+    from bbdyn.ensemble import ensemble
+
+    cfg = settings["ensemble"]
+    # t f whole periods, transient 0: the collision count covers the whole run.
+    t = math.floor(cfg["t"] * params.f) / params.f
+    counts = []
+
+    def run():
+        res = ensemble(
+            params, t=t, n=cfg["n"], seed=0, transient=0.0, threads=cfg["threads"], observables=()
+        )
+        counts.append(int(res["collisions"].sum()))
+
+    timing = measure(run, repeats=settings["repeats"], min_time=0.0)
+    threads = int(cfg["threads"])
+    rate = timing.per_second(counts[-1])
+    return {
+        "method": "exact",
+        "setting": f"ensemble n={cfg['n']}, t={cfg['t']:g} s, {threads} threads",
+        "impacts_per_s": rate,
+        "collisions_per_s": rate,
+        "collisions_per_s_per_core": rate / threads,
+        "threads": threads,
+        "max_time_error_s": math.nan,
+        "max_velocity_error": math.nan,
+    }
+
+
+def _bench_fixed(kp, starts, ref, settings) -> list[dict[str, Any]]:
+    n = starts.shape[0]
+    rows = []
+    for dt, dt_min in settings["fixed"]:
+        out = [np.empty(n) for _ in range(5)]
+        evals = [0]
+
+        def run(dt=dt, dt_min=dt_min, out=out, evals=evals):
+            evals[0], status = fixed_step_billiard_one_step(starts, dt, dt_min, kp, *out)
+            raise_for_status(status, "fixed-step one-step")
+
+        timing = measure(run, repeats=settings["repeats"], min_time=settings["min_time"])
+        tau, _, _, vx, vy = out
+        rate = timing.per_second(n)
+        row = {"method": "fixed_step", "setting": f"dt={dt:g} s, dt_min={dt_min:g} s"}
+        row.update(dt=dt, dt_min=dt_min, gap_evals_per_impact=evals[0] / n)
+        row.update(impacts_per_s=rate, collisions_per_s=rate, **_errors(ref, tau, vx, vy, dt_min))
+        rows.append(row)
+    return rows
+
+
+def _observables(params, settings) -> list[dict[str, Any]]:
+    """D and energies of the same ensemble (seed, box) with the exact and fixed-step methods."""
+    from bbdyn.ensemble import ensemble
+
+    cfg = settings["observables"]
+    res = ensemble(params, t=cfg["t"], n=cfg["n"], seed=cfg["seed"])
+    exact = {"method": "exact", "setting": "default", **res.summary()}
+    exact["wall_s"] = res.meta["wall_s"]
+    rows = [exact]
+    for dt, dt_min in cfg["fixed"]:
+        row = {"method": "fixed_step", "setting": f"dt={dt:g} s, dt_min={dt_min:g} s"}
+        row.update(
+            fixed_step_ensemble(
+                params, t=cfg["t"], n=cfg["n"], seed=cfg["seed"], dt=dt, dt_min=dt_min
+            )
+        )
+        for name in ("D", "E", "E_x", "E_y", "E_pot"):
+            diff = row[name] - exact[name]
+            se = math.hypot(row[name + "_se"], exact[name + "_se"])
+            row[name + "_diff_in_se"] = diff / se
+        rows.append(row)
+    return rows
+
+
+def _profile(settings) -> list[dict[str, Any]]:
+    """Continuous-run collisions per second, steps per flight, stick share per frequency."""
+    rows = []
+    n_events = int(settings["profile_events"])
+    for f in settings["profile_f"]:
+        kp = Params(f=f).kernel()
+        out = billiard_run_count(*CASE["start"], kp, CASE["transient"])
+        raise_for_status(out[8], f"profile transient at {f} Hz")
+        state = np.array(out[:7], dtype=float)
+        steps, flights, collisions, sticks, status = flight_profile(state, kp, n_events)
+        raise_for_status(status, f"profile at {f} Hz")
+        timing = measure(
+            lambda kp=kp, state=state: _continuous(state, kp, n_events),
+            repeats=settings["repeats"],
+            min_time=settings["min_time"],
+        )
+        rows.append(
+            {
+                "f": f,
+                "collisions_per_s": timing.per_second(collisions),
+                "events_per_s": timing.per_second(n_events),
+                "steps_per_flight": steps / flights,
+                "stick_share": sticks / collisions,
+                "ns_per_step": 1e9 * timing.median_s / steps,
+            }
+        )
+    return rows
+
+
+class BilliardBenchResult(Result):
+    """Rows of the billiard work-precision benchmark (B2).
+
+    ``meta["rows"]``: one dict per method and setting (``method``, ``setting``,
+    ``collisions_per_s``, ``impacts_per_s`` (the same), ``max_time_error_s`` (s),
+    ``max_velocity_error`` (mm/s), ``cost_ratio_to_exact``, ``wrong_contacts``, ...);
+    ``meta["observables"]``: D and energies, exact vs fixed step; ``meta["profile"]``:
+    per-frequency cost.  Arrays: the one-step start states ``starts`` (rows ``phase,
+    xi, vx, vyrel``) and the mpmath reference ``reference`` (rows ``tau, vx+, vy+``).
+    """
+
+    kind = "bench_billiard"
+
+    def plot(self, ax=None):
+        """Work-precision: max one-step impact-time error vs cost per collision."""
+        import matplotlib.pyplot as plt
+
+        if ax is None:
+            _, ax = plt.subplots()
+        floor = 1e-19
+        for method, marker in (("exact", "o"), ("fixed_step", "s")):
+            rows = [
+                r
+                for r in self.meta["rows"]
+                if r["method"] == method and math.isfinite(r["max_time_error_s"])
+            ]
+            cost = np.array([1e6 / r["collisions_per_s"] for r in rows])
+            err = np.array([max(r["max_time_error_s"], floor) for r in rows])
+            ax.loglog(cost, err, marker, label=method.replace("_", " "))
+            for c, e, r in zip(cost, err, rows, strict=True):
+                label = f"{r['dt']:g}/{r['dt_min']:g}" if method == "fixed_step" else ""
+                label = label or r["setting"].split(",")[0]
+                ax.annotate(label, (c, e), fontsize=6, xytext=(3, 2), textcoords="offset points")
+        ax.axhline(1e-12, color="0.6", lw=0.8, ls="--")
+        ax.set_xlabel("cost per collision (µs, single core)")
+        ax.set_ylabel("max one-step error of impact time (s)")
+        ax.legend(fontsize=8)
+        return ax
+
+
+def compute(settings: dict[str, Any], *, log=None) -> BilliardBenchResult:
+    """Run the benchmark with ``settings`` (``QUICK``, ``FULL`` or a modified copy)."""
+    log = log or (lambda msg: print(msg, file=sys.stderr))
+    start = time.perf_counter()
+    params = Params(f=CASE["f"])
+    kp = params.kernel()
+    n = int(settings["n_impacts"])
+    if n < 1:
+        raise ValueError(f"n_impacts must be >= 1, got {n}")
+    log("bench billiard: ensemble on 2 threads")
+    ens_row = _bench_ensemble(params, settings)
+    single_thread()
+    states = attractor_states(params, n)
+    starts = np.ascontiguousarray(_start_array(states))
+    tau, k = np.empty(starts.shape[0]), np.empty(starts.shape[0])
+    scratch = [np.empty(starts.shape[0]) for _ in range(3)]
+    raise_for_status(exact_one_step(starts, kp, tau, k, *scratch), "exact one-step")
+    log(f"bench billiard: mpmath reference for {starts.shape[0]} flights")
+    ref = _reference(kp, starts, k, tau)
+    log("bench billiard: exact kernel")
+    rows = _bench_exact(kp, states, starts, ref, settings) + [ens_row]
+    log("bench billiard: fixed step")
+    rows += _bench_fixed(kp, starts, ref, settings)
+    exact_speed = rows[0]["collisions_per_s"]
+    for row in rows:
+        row["cost_ratio_to_exact"] = exact_speed / row["collisions_per_s"]
+    log("bench billiard: D and energies, exact vs fixed step")
+    observables = _observables(params, settings)
+    log("bench billiard: profile over frequencies")
+    profile = _profile(settings)
+    keys = ("collisions_per_s", "max_time_error_s", "max_velocity_error", "cost_ratio_to_exact")
+    arrays = {key: np.array([r[key] for r in rows]) for key in keys}
+    arrays.update(starts=starts, reference=ref)
+    meta = make_meta(
+        params,
+        wall_s=time.perf_counter() - start,
+        case={"f": CASE["f"], "start": list(CASE["start"]), "transient": CASE["transient"]},
+        settings=settings,
+        rows=rows,
+        observables=observables,
+        profile=profile,
+        errors="one-step: every method restarts from the same float64 state on the attractor",
+    )
+    return BilliardBenchResult(arrays, meta)
+
+
+def draw(result: BilliardBenchResult):
+    """Figure: work-precision panel and the per-frequency cost profile."""
+    import matplotlib.pyplot as plt
+
+    fig, axes = plt.subplots(1, 2, figsize=(11, 4.5))
+    result.plot(axes[0])
+    prof = result.meta["profile"]
+    f = [r["f"] for r in prof]
+    axes[1].plot(f, [r["collisions_per_s"] / 1e6 for r in prof], "o-", label="collisions/s (1e6)")
+    axes[1].plot(f, [r["steps_per_flight"] for r in prof], "s-", label="safe steps / flight")
+    axes[1].set_xlabel("f (Hz)")
+    axes[1].legend(fontsize=8)
+    axes[1].set_title("exact kernel cost, continuous run, 1 thread", fontsize=9)
+    fig.suptitle(f"billiard work-precision (f = {result.meta['case']['f']} Hz, MODEL.md defaults)")
+    fig.tight_layout()
+    return fig
+
+
+def table(result: BilliardBenchResult) -> str:
+    """The rows, the observables comparison and the profile as plain text."""
+    head = f"{'method':<11} {'setting':<48} {'coll/s':>9} {'max dt (s)':>10} "
+    head += f"{'max dv (mm/s)':>13} {'med dt (s)':>10} {'wrong':>5} {'cost/exact':>10}"
+    lines = [head]
+    for r in result.meta["rows"]:
+        lines.append(
+            f"{r['method']:<11} {r['setting']:<48} {r['collisions_per_s']:>9.3g} "
+            f"{r['max_time_error_s']:>10.2e} {r['max_velocity_error']:>13.2e} "
+            f"{r.get('median_time_error_s', math.nan):>10.2e} {r.get('wrong_contacts', 0):>5} "
+            f"{r['cost_ratio_to_exact']:>10.3g}"
+        )
+    cfg = result.meta["settings"]["observables"]
+    lines += ["", f"observables at {result.meta['case']['f']} Hz, n={cfg['n']}, t={cfg['t']} s:"]
+    for r in result.meta["observables"]:
+        text = f"{r['method']:<11} {r['setting']:<24}"
+        for name in ("D", "E", "E_x", "E_y"):
+            text += f" {name} {r[name]:.4g} +- {r[name + '_se']:.2g}"
+            if name + "_diff_in_se" in r:
+                text += f" ({r[name + '_diff_in_se']:+.1f} se)"
+        text += f"  coll/particle/s {r['collisions_per_particle_per_s']:.4g}"
+        lines.append(text)
+    lines += ["", "profile (continuous run, 1 thread):"]
+    lines.append(
+        f"{'f (Hz)':>7} {'coll/s':>9} {'steps/flight':>12} {'stick share':>11} {'ns/step':>8}"
+    )
+    for r in result.meta["profile"]:
+        lines.append(
+            f"{r['f']:>7g} {r['collisions_per_s']:>9.3g} {r['steps_per_flight']:>12.2f} "
+            f"{r['stick_share']:>11.3f} {r['ns_per_step']:>8.1f}"
+        )
+    return "\n".join(lines)

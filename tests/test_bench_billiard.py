@@ -1,0 +1,139 @@
+"""Billiard work-precision benchmark (B2): reference, fixed-step method, exact kernel, command."""
+
+import json
+import math
+
+import numpy as np
+import pytest
+
+from bbdyn import Params, cli
+from bbdyn.benchmarking import billiard as bench
+from bbdyn.benchmarking.fixed_step_billiard import fixed_step_billiard_one_step
+from bbdyn.core.billiard import billiard_run
+from bbdyn.core.status import IMPACT, OK, STICK
+from bbdyn.core.tolerances import EPS, IMPACT_TIME_TOL
+
+N_FLIGHTS = 40
+
+
+@pytest.fixture(scope="module")
+def flights():
+    """Start states on the 85.2 Hz attractor, the exact flights and the mpmath reference."""
+    params = Params(f=bench.CASE["f"])
+    kp = params.kernel()
+    states = bench.attractor_states(params, N_FLIGHTS)
+    starts = np.ascontiguousarray(bench._start_array(states))
+    out = [np.empty(starts.shape[0]) for _ in range(5)]
+    assert bench.exact_one_step(starts, kp, *out) == OK
+    ref = bench._reference(kp, starts, out[1], out[0])
+    return kp, starts, out, ref
+
+
+def test_exact_kernel_impact_time_matches_mpmath(flights):
+    """One flight of the exact kernel hits the mpmath root to IMPACT_TIME_TOL (<< 1e-12 s)."""
+    kp, starts, (tau, _, _, vx, vy), ref = flights
+    assert np.all(np.isfinite(ref))
+    err = np.abs(tau - ref[:, 0])
+    assert err.max() <= IMPACT_TIME_TOL
+    # flights of more than a millisecond are right to a few ulp of the flight time
+    # (tiny chattering hops lose more: V.n << |V| is rounded from vx and vyrel)
+    long = ref[:, 0] > 1e-3
+    assert np.count_nonzero(long) >= 5
+    assert np.all(err[long] <= 4 * EPS * ref[long, 0])
+    # the post-impact velocity follows: error ~ time error x acceleration bound
+    dv = np.hypot(vx - ref[:, 1], vy - ref[:, 2])
+    assert dv.max() <= 1e3 * EPS * kp.curv_bound * kp.period
+
+
+def test_fixed_step_is_late_by_less_than_its_bracket(flights):
+    """The fixed-step contact is never early and late by less than dt_min."""
+    kp, starts, _, ref = flights
+    n = starts.shape[0]
+    for dt, dt_min in ((1e-4, 1e-6), (1e-5, 1e-8)):
+        out = [np.empty(n) for _ in range(5)]
+        _, status = fixed_step_billiard_one_step(starts, dt, dt_min, kp, *out)
+        assert status == OK
+        late = out[0] - ref[:, 0]
+        assert np.all(late >= -IMPACT_TIME_TOL)
+        assert np.all(late <= dt_min * (1 + 1e-9))
+
+
+def test_fixed_step_error_is_first_order_in_dt_min(flights):
+    """Halving the final bracket halves the mean lateness (fitted slope 1)."""
+    kp, starts, _, ref = flights
+    n = starts.shape[0]
+    brackets = 1e-4 / 2.0 ** np.array([4, 7, 10, 13])
+    mean_late = []
+    for dt_min in brackets:
+        out = [np.empty(n) for _ in range(5)]
+        assert fixed_step_billiard_one_step(starts, 1e-4, dt_min, kp, *out)[1] == OK
+        mean_late.append(np.mean(out[0] - ref[:, 0]))
+    slope = np.polyfit(np.log(brackets), np.log(mean_late), 1)[0]
+    assert abs(slope - 1.0) < 0.15
+
+
+def test_profile_counts_agree_with_recorded_run():
+    """flight_profile's collision and stick counts are those of a recorded run."""
+    kp = Params(f=58.0).kernel()
+    n = 5000
+    state = np.array(bench.CASE["start"], dtype=float)
+    _, flights_, collisions, sticks, status = bench.flight_profile(state, kp, n)
+    assert status == OK
+    arrays = [np.empty(n) for _ in range(6)] + [np.empty(n, dtype=np.int64)]
+    n_done, status = billiard_run(*bench.CASE["start"], kp, *arrays)
+    assert status == OK and n_done == n
+    kind = arrays[6]
+    assert collisions == np.count_nonzero(kind != 2)
+    assert sticks == np.count_nonzero(kind == STICK)
+    # a flight starts after every event but a STICK (the start is an IMPACT)
+    assert flights_ == 1 + np.count_nonzero(kind[:-1] != STICK)
+    assert bench.CASE["start"][6] == IMPACT
+
+
+TINY = {
+    "n_impacts": 12,
+    "fixed": [(1e-4, 1e-6)],
+    "continuous_events": 5000,
+    "ensemble": {"n": 8, "t": 0.5, "threads": 1},
+    "observables": {"n": 4, "t": 0.5, "seed": 1, "fixed": [(1e-4, 1e-6)]},
+    "profile_f": [58.0],
+    "profile_events": 2000,
+    "repeats": 1,
+    "min_time": 0.0,
+}
+
+
+def test_compute_rows_and_table(tmp_path):
+    """The benchmark's rows carry the flat benchmark's fields and collisions_per_s."""
+    res = bench.compute(TINY, log=lambda msg: None)
+    rows = res.meta["rows"]
+    for row in rows:
+        for key in ("method", "setting", "impacts_per_s", "collisions_per_s", "max_time_error_s"):
+            assert key in row
+        assert row["collisions_per_s"] > 0
+    exact = rows[0]
+    assert exact["max_time_error_s"] <= IMPACT_TIME_TOL and exact["wrong_contacts"] == 0
+    fixed = [r for r in rows if r["method"] == "fixed_step"]
+    assert all(r["max_time_error_s"] <= r["dt_min"] for r in fixed)
+    obs = res.meta["observables"]
+    assert [r["method"] for r in obs] == ["exact", "fixed_step"]
+    assert all(
+        math.isfinite(r["E"])
+        and math.isclose(r["E"], r["E_x"] + r["E_y"] + r["E_pot"], rel_tol=1e-12)
+        for r in obs
+    )
+    assert "profile" in bench.table(res)
+    res.save(tmp_path / "b")
+    fig = bench.draw(res)
+    fig.savefig(tmp_path / "b.png")
+
+
+@pytest.mark.slow
+def test_bench_billiard_cli_json(tmp_path, capsys):
+    """`bbdyn bench billiard --quick --json` prints rows with collisions_per_s."""
+    assert (
+        cli.main(["bench", "billiard", "--quick", "--json", "--out", str(tmp_path / "b.png")]) == 0
+    )
+    rows = json.loads(capsys.readouterr().out)
+    assert rows[0]["method"] == "exact" and rows[0]["collisions_per_s"] > 0
+    assert (tmp_path / "b.png").exists() and (tmp_path / "b.json").exists()
