@@ -50,6 +50,10 @@ def run(args) -> int:
             scheduler=args.scheduler,
             progress=log if log else True,
         )
+    except FileExistsError:
+        raise ValueError(
+            f"{args.out} already holds a scan: add --resume to finish it, or choose a new --out"
+        ) from None
     finally:
         if log:
             log.close()
