@@ -21,6 +21,7 @@ from pathlib import Path
 #: scene id -> module under bbdyn.scenes
 SCENES = {
     "S1": "s1_tongues",
+    "B1": "b1_regime_map",
     "S2": "s2_geometry",
     "S6": "s6_phase_space_58",
     "S7": "s7_phase_space_85",

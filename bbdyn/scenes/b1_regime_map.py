@@ -1,0 +1,111 @@
+"""Scene B1: regime map -- regime label, number of attractors and basin fractions against f.
+
+Each frequency is one point of a resumable, parallel ``bbdyn.scan.run_scan``;
+``regime_point`` runs ``bbdyn.classify.classify`` on the reference box there.
+"""
+
+from __future__ import annotations
+
+import functools
+import tempfile
+import time
+
+import numpy as np
+
+from bbdyn.results import Result, make_meta
+
+TITLE = "Regime map: regime, attractors and basin fractions against f (classifier, issue 6)"
+#: Regime labels in the order of the stored codes.
+LABELS = ("a", "b(i)", "b(ii)", "c", "d", "other")
+#: Basin fractions stored per point (largest first); more attractors are summed in the last.
+MAX_ATTRACTORS = 4
+QUICK = {
+    "f_min": 50.0,
+    "f_max": 94.0,
+    "n_f": 12,
+    "n": 60,
+    "t": 6.0,
+    "workers": None,
+    "scan_dir": None,
+}
+FULL = {"f_min": 49.8, "f_max": 95.0, "n_f": 227, "n": 1000, "t": 50.0, "workers": None,
+        "scan_dir": "scan_B1"}  # fmt: skip
+
+
+def regime_point(f: float, seed_sequence, *, n: int, t: float) -> dict:
+    """Classification at ``f`` (Hz) as numbers for the scan (top-level: workers import it)."""
+    from bbdyn import Params
+    from bbdyn.classify import classify
+
+    seed = int(seed_sequence.generate_state(1)[0])
+    s = classify(Params(f=f), t=t, n=n, seed=seed, threads=1).summary
+    fractions = np.zeros(MAX_ATTRACTORS)
+    for i, att in enumerate(s["attractors"]):
+        fractions[min(i, MAX_ATTRACTORS - 1)] += att["fraction"]
+    locked = [a["locking_k"] or 0 for a in s["attractors"]]
+    return {
+        "regime": float(LABELS.index(s["regime"])),
+        "n_attractors": float(s["n_attractors"]),
+        "ergodic": float(s["ergodic"]),
+        "unsettled_fraction": s["unsettled_fraction"],
+        "fractions": fractions,
+        "locking_k": float(locked[0]) if locked else 0.0,
+        "D_main": s["attractors"][0]["D"] if s["attractors"] else np.nan,
+    }
+
+
+class SceneB1Result(Result):
+    """Arrays: ``f`` (Hz), ``regime`` (codes into ``LABELS``), ``n_attractors``, ``ergodic``,
+    ``unsettled_fraction``, ``fractions`` (n_f, MAX_ATTRACTORS), ``locking_k``, ``D_main``."""
+
+    kind = "scene_b1"
+
+    def plot(self, ax=None):
+        fig = draw(self, ax)
+        return ax if ax is not None else fig.axes[0]
+
+
+def compute(settings: dict, seed: int = 0) -> SceneB1Result:
+    """Classify the reference box at ``n_f`` frequencies in ``[f_min, f_max]`` (one scan)."""
+    from bbdyn.scan import run_scan
+
+    start = time.perf_counter()
+    freqs = np.round(np.linspace(settings["f_min"], settings["f_max"], settings["n_f"]), 6)
+    point = functools.partial(regime_point, n=int(settings["n"]), t=float(settings["t"]))
+    with tempfile.TemporaryDirectory() as tmp:
+        out_dir = settings["scan_dir"] or tmp
+        scan = run_scan(freqs.tolist(), point, out_dir=out_dir, seed=seed,
+                        workers=settings["workers"], progress=False)  # fmt: skip
+    arrays = {k: np.asarray(v) for k, v in scan.arrays.items()}
+    counts = {lab: int(np.sum(arrays["regime"] == i)) for i, lab in enumerate(LABELS)}
+    meta = make_meta(seed=seed, wall_s=time.perf_counter() - start,
+                     key_numbers={"points per regime": counts})  # fmt: skip
+    return SceneB1Result(arrays, meta)
+
+
+def draw(result: Result, ax=None):
+    """Regime bands, number of attractors and stacked basin fractions; returns the Figure."""
+    import matplotlib.pyplot as plt
+
+    if ax is None:
+        fig, axes = plt.subplots(2, 1, figsize=(8, 5.5), sharex=True)
+    else:
+        fig, axes = ax.figure, [ax, ax.twinx()]
+    f = result["f"]
+    order = np.argsort(f)
+    f, reg = f[order], result["regime"][order].astype(int)
+    step = np.median(np.diff(f)) if f.size > 1 else 1.0
+    colors = plt.get_cmap("tab10")
+    for i, lab in enumerate(LABELS):
+        sel = reg == i
+        if sel.any():
+            axes[0].bar(f[sel], 1.0, width=step, color=colors(i), alpha=0.35, label=lab)
+    axes[0].plot(f, result["n_attractors"][order] / 4, "ko-", ms=3, label="attractors / 4")
+    axes[0].plot(f, result["unsettled_fraction"][order], "rx", ms=4, label="unsettled")
+    axes[0].set(ylim=(0, 1.05), ylabel="regime band")
+    axes[0].legend(ncol=4, fontsize=7, loc="upper right")
+    fr = result["fractions"][order]
+    axes[1].stackplot(f, fr.T, labels=[f"attractor {i}" for i in range(fr.shape[1])], alpha=0.7)
+    axes[1].set(xlabel="f (Hz)", ylabel="basin fraction", ylim=(0, 1))
+    axes[1].legend(fontsize=7, loc="lower right")
+    return fig
