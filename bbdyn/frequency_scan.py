@@ -305,7 +305,8 @@ def scan_folder(settings: dict, seed: int, out_dir=None) -> Path:
     The digest covers the grid, n, t, transient, seed and package version, so scenes
     with the same setting share one scan (S3, S4 and S5 compute it once) and a new
     version never reuses old numbers.  ``out_dir`` defaults to ``$BBDYN_CACHE`` or
-    ``~/.cache/bbdyn``; ``settings["scan_dir"]`` names a scan folder explicitly.
+    ``~/.cache/bbdyn``; ``settings["scan_dir"]`` names a scan folder explicitly (with ``settings["partial"]``
+    true, its finished points are enough).
     """
     import hashlib
     import json
@@ -329,7 +330,7 @@ def scene_scan(settings: dict, seed: int, out_dir=None):
     if settings.get("scan_dir"):
         from bbdyn.scan import load_scan
 
-        return load_scan(folder)
+        return load_scan(folder, partial=bool(settings.get("partial", False)))
     grid = frequency_grid(settings["f_start"], settings["f_stop"], settings["f_step"])
     return frequency_scan(
         grid,
