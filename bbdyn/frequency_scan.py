@@ -305,8 +305,8 @@ def scan_folder(settings: dict, seed: int, out_dir=None) -> Path:
     The digest covers the grid, n, t, transient, seed and package version, so scenes
     with the same setting share one scan (S3, S4 and S5 compute it once) and a new
     version never reuses old numbers.  ``out_dir`` defaults to ``$BBDYN_CACHE`` or
-    ``~/.cache/bbdyn``; ``settings["scan_dir"]`` names a scan folder explicitly (with ``settings["partial"]``
-    true, its finished points are enough).
+    ``~/.cache/bbdyn``; ``settings["scan_dir"]`` names a scan folder explicitly (with
+    ``settings["partial"]`` true, its finished points are enough).
     """
     import hashlib
     import json
