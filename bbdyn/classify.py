@@ -24,7 +24,7 @@ import numpy as np
 
 from bbdyn.billiard import check_params
 from bbdyn.core.status import FAILURES, STATUS_MESSAGES, SimulationError
-from bbdyn.ensemble import Box, _kernel_states, initial_conditions, reference_box
+from bbdyn.ensemble import Box, initial_conditions, kernel_states, reference_box
 from bbdyn.params import Params
 from bbdyn.results import Result, make_meta
 
@@ -158,7 +158,7 @@ def _states_from(params, boxes, n, seed, initial, start_phase):
     u0, u1 = -params.A * params.w, -params.A * params.w * math.cos(start_phase)
     shifted = ics.copy()
     shifted[:, 2] += u0 - u1
-    states = _kernel_states(params, shifted)
+    states = kernel_states(params, shifted)
     states[:, 1] = start_phase
     return ics, states, box_index, boxes
 

@@ -67,7 +67,7 @@ def initial_conditions(params: Params, n: int, seed, box: Box | None = None) -> 
     return out
 
 
-def _kernel_states(params: Params, ics: np.ndarray) -> np.ndarray:
+def kernel_states(params: Params, ics: np.ndarray) -> np.ndarray:
     """Kernel states of post-collision initial conditions ``(s, vx+, vy+)`` at t = 0."""
     from bbdyn.core.ensemble import initial_states
 
@@ -84,7 +84,7 @@ def _kernel_states(params: Params, ics: np.ndarray) -> np.ndarray:
     return states
 
 
-def _periods_phase(times_s: np.ndarray, f: float) -> tuple[np.ndarray, np.ndarray]:
+def periods_phase(times_s: np.ndarray, f: float) -> tuple[np.ndarray, np.ndarray]:
     """Split times (s) into whole periods and phase w t mod 2 pi."""
     cycles = np.asarray(times_s, dtype=float) * f
     whole = np.floor(cycles)
@@ -173,7 +173,7 @@ def ensemble(
         if int(n) != n or n < 1:
             raise ValueError(f"n must be a positive integer, got {n}")
         ics = initial_conditions(params, int(n), seed, box)
-    states = _kernel_states(params, ics)
+    states = kernel_states(params, ics)
     n = ics.shape[0]
 
     transient = t / 5 if transient is None else float(transient)
@@ -191,11 +191,11 @@ def ensemble(
         raise ValueError(f"sample_times must lie in [0, t = {t}] s")
     if "displacement" not in observables:
         sample_times = sample_times[:0]
-    s_periods, s_phase = _periods_phase(sample_times, params.f)
-    end_periods, end_phase = _periods_phase(np.array([t]), params.f)
+    s_periods, s_phase = periods_phase(sample_times, params.f)
+    end_periods, end_phase = periods_phase(np.array([t]), params.f)
     end = np.array([end_periods[0], end_phase[0]])
     rec_t = (0.0, t) if record_window is None else tuple(float(v) for v in record_window)
-    rp, rph = _periods_phase(np.array(rec_t), params.f)
+    rp, rph = periods_phase(np.array(rec_t), params.f)
     record_win = np.array([rp[0], rph[0], rp[1], rph[1]])
 
     flags = 0

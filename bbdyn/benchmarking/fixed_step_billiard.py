@@ -31,7 +31,7 @@ import numpy as np
 from numba import njit, prange
 
 from bbdyn.core.billiard import segment_gap, snap_to_wedge, tile_offset, wedge_reflect
-from bbdyn.core.ensemble import ACC_EX, ACC_EY, ACC_POT, _accumulate
+from bbdyn.core.ensemble import ACC_EX, ACC_EY, ACC_POT, accumulate_interval
 from bbdyn.core.floor import arc_root, floor_height_rel, from_normal_velocity, normal_velocity
 from bbdyn.core.observables import displacement, is_before, time_between
 from bbdyn.core.plate import advance_phase
@@ -208,7 +208,7 @@ def _fixed_particle(i, state, dt, dt_min, kp, end, window, s_periods, s_phase, d
             hi = w1
         if is_before(lo[0], lo[1], hi[0], hi[1]):
             b = floor_height_rel(xi, kp)
-            _accumulate(acc, i, False, periods, phase, b, vx, vyrel, lo, hi, kp, True)
+            accumulate_interval(acc, i, False, periods, phase, b, vx, vyrel, lo, hi, kp, True)
         while k < n_samples and (last or is_before(s_periods[k], s_phase[k], nxt[0], nxt[1])):
             x = xi + vx * time_between(s_periods[k], s_phase[k], periods, phase, kp.w, kp.period)
             disp[i, k] = displacement(tile, x, tile0, xi0, kp.d)
@@ -258,7 +258,7 @@ def fixed_step_ensemble(params, *, t, n, seed, dt, dt_min, transient=None, n_sam
     from bbdyn.core.ensemble import initial_states
     from bbdyn.core.status import raise_for_status
     from bbdyn.diffusion import einstein_D
-    from bbdyn.ensemble import _periods_phase, initial_conditions
+    from bbdyn.ensemble import initial_conditions, periods_phase
 
     for name, value in (("t", t), ("dt", dt), ("dt_min", dt_min)):
         if not (math.isfinite(value) and value > 0):
@@ -272,8 +272,8 @@ def fixed_step_ensemble(params, *, t, n, seed, dt, dt_min, transient=None, n_sam
     transient = t / 5 if transient is None else float(transient)
     window = np.array([math.ceil(transient * params.f), math.floor(t * params.f)], dtype=float)
     times = np.linspace(0.0, t, n_samples)
-    s_periods, s_phase = _periods_phase(times, params.f)
-    end_periods, end_phase = _periods_phase(np.array([t]), params.f)
+    s_periods, s_phase = periods_phase(times, params.f)
+    end_periods, end_phase = periods_phase(np.array([t]), params.f)
     end = np.array([end_periods[0], end_phase[0]])
     disp = np.zeros((ics.shape[0], n_samples))
     acc = np.zeros((ics.shape[0], 4))

@@ -96,7 +96,7 @@ def initial_states(ics, kp, states):
 
 
 @njit(cache=True)
-def _accumulate(acc, i, stuck, periods, phase, tile_xi_b, vx, vyrel, lo, hi, kp, energy):
+def accumulate_interval(acc, i, stuck, periods, phase, tile_xi_b, vx, vyrel, lo, hi, kp, energy):
     """Add the integrals over ``[lo, hi]`` of the motion since the event at ``(periods, phase)``.
 
     ``lo`` and ``hi`` are ``(periods, phase)`` pairs inside the interval; ``tile_xi_b`` is the
@@ -215,7 +215,7 @@ def run_particle(
         if is_before(w1[0], w1[1], hi[0], hi[1]):
             hi = w1
         if is_before(lo[0], lo[1], hi[0], hi[1]):
-            _accumulate(acc, i, stuck, periods, phase, b, vx, vyrel, lo, hi, kp, energy)
+            accumulate_interval(acc, i, stuck, periods, phase, b, vx, vyrel, lo, hi, kp, energy)
 
         # positions at the sample times inside this interval (all remaining ones if last)
         if do_disp:

@@ -3,7 +3,7 @@
 Each particle is run event by event with ``billiard_event`` (the ladder of
 ``core/billiard.py``); the features are accumulated on the way, after a
 transient, so memory is proportional to the ensemble, not to the run.  The
-energy and stuck-time integrals reuse ``core.ensemble._accumulate`` (exact over
+energy and stuck-time integrals reuse ``core.ensemble.accumulate_interval`` (exact over
 flights and stuck intervals), traps and displacements ``core/observables.py``.
 
 The averaging window ``[p0, p0 + nb L]`` (whole driving periods) is cut into
@@ -36,7 +36,7 @@ import numpy as np
 from numba import njit, prange
 
 from bbdyn.core.billiard import billiard_event
-from bbdyn.core.ensemble import _accumulate
+from bbdyn.core.ensemble import accumulate_interval
 from bbdyn.core.floor import floor_height_rel
 from bbdyn.core.observables import displacement, is_before, time_between, trap_of
 from bbdyn.core.plate import TWO_PI
@@ -139,7 +139,7 @@ def feature_particle(
                 if is_before(p0 + (j + 1) * L, 0.0, z_p, z_ph):
                     z_p, z_ph = p0 + (j + 1) * L, 0.0
                 if is_before(a_p, a_ph, z_p, z_ph):
-                    _accumulate(
+                    accumulate_interval(
                         blocks[i], j, stuck, periods, phase, b, vx, vyrel,
                         (a_p, a_ph), (z_p, z_ph), kp, True,
                     )  # fmt: skip
