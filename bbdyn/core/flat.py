@@ -48,6 +48,7 @@ from bbdyn.core.plate import (
     plate_dvel,
     plate_rise,
     release_window,
+    sin_cos,
 )
 from bbdyn.core.status import (
     BAD_STATE,
@@ -59,7 +60,7 @@ from bbdyn.core.status import (
     STICK,
     STUCK_FOREVER,
 )
-from bbdyn.core.tolerances import CHATTER_REL_TOL, ROOT_MAX_STEPS, ROOT_STEP_REL
+from bbdyn.core.tolerances import CHATTER_REL_TOL, EPS, ROOT_MAX_STEPS, ROOT_STEP_REL
 
 
 @njit(cache=True, inline="always")
@@ -72,15 +73,118 @@ def safe_step(G, Gp, M):
 
 
 @njit(cache=True, inline="always")
-def flat_gap(vrel, g, A, w, s0, c0, tau):
-    """Gap G (mm) and its rate G' (mm/s) at ``tau`` after an event at phase theta."""
+def flat_gap_phase(vrel, g, A, w, s0, c0, tau):
+    """Gap G (mm), its rate G' (mm/s), and sin, cos of the phase theta + w tau.
+
+    The phase's sine and cosine come from the same sin/cos pair of ``x/2`` by the
+    addition formulas; they give ``G'' = -g - A w^2 sin`` and
+    ``G''' = -A w^3 cos`` at no further cost.
+    """
     x = w * tau
-    # one sin/cos pair of x/2 (the compiler fuses it into one sincos call)
-    sin_half = math.sin(0.5 * x)
-    sin_x = 2.0 * sin_half * math.cos(0.5 * x)
+    # one sin/cos pair of x/2 gives sin x, 1 - cos x = 2 sin^2(x/2) without cancellation
+    sin_half, cos_half = sin_cos(0.5 * x)
+    sin_x = 2.0 * sin_half * cos_half
     G = vrel * tau - 0.5 * g * tau * tau - plate_rise(A, s0, c0, x, sin_x, sin_half)
     Gp = vrel - g * tau - plate_dvel(A, w, s0, c0, sin_x, sin_half)
+    cos_x = 1.0 - 2.0 * sin_half * sin_half
+    return G, Gp, s0 * cos_x + c0 * sin_x, c0 * cos_x - s0 * sin_x
+
+
+@njit(cache=True, inline="always")
+def flat_gap(vrel, g, A, w, s0, c0, tau):
+    """Gap G (mm) and its rate G' (mm/s) at ``tau`` after an event at phase theta."""
+    G, Gp, _, _ = flat_gap_phase(vrel, g, A, w, s0, c0, tau)
     return G, Gp
+
+
+@njit(cache=True, inline="always")
+def cubic_safe_step(G, Gp, m, M, K):
+    """A step s > 0 before which the gap cannot vanish, from its cubic Taylor bound.
+
+    With ``m >= -G''`` at the current point, ``|G'''| <= K = A w^3`` and
+    ``-G'' <= M`` everywhere,
+
+        G(tau + s) >= G + G' s - m s^2 / 2 - K s^3 / 6 >= G + G' s - c s^2 / 2
+
+    for ``0 <= s <= h`` with ``c = min(M, m + K h / 3)``.  Taking ``h`` the root
+    for curvature ``m`` (an overestimate of the cubic's first root) and the step
+    the root for ``c`` (``<= h`` because ``c >= m``) gives a safe step short of
+    the cubic's first root by only ``O(K^2)``: near a transversal contact the
+    error falls as ``e -> K e^3 / (3 |G'|)`` (cubic convergence from below).
+    Where ``m <= 0`` it is the global quadratic step with ``M``.
+    """
+    h = safe_step(G, Gp, m) if m > 0.0 else math.inf
+    return safe_step(G, Gp, min(M, m + K * h * (1.0 / 3.0)))
+
+
+@njit(cache=True)
+def flat_flight_evals(phase, vrel, kp):
+    """``flat_flight`` that also returns the number of gap evaluations it made.
+
+    Returns ``(tau, vrel_minus, status, n_evals)``; see ``flat_flight``.  The
+    evaluation count measures the search's cost independently of machine load.
+    """
+    A, w, g, M = kp.A, kp.w, kp.g, kp.curv_bound
+    aw2 = A * w * w
+    K = aw2 * w  # |G'''| <= A w^3
+    L = K * w  # |G''''| <= A w^4
+    # Rounding allowance on m = -G'': a few ulp of its terms keeps the lower bound a bound.
+    m_pad = 4.0 * EPS * M
+    s0, c0 = sin_cos(phase)
+    n_evals = 0
+    tau = 0.0
+    G, Gp, sn, cn = 0.0, vrel, s0, c0
+    # Cheap superset of the release window sin(phase) < -1/Gamma before the asin.
+    if kp.gamma * s0 < -1.0 + 1e-9:
+        theta_r, theta_e = release_window(kp.gamma)
+    else:
+        theta_r, theta_e = -1.0, -1.0
+    if theta_r <= phase < theta_e:
+        # G'' > 0 until theta_e and G(0) = 0, G'(0) >= 0: no contact before theta_e.
+        if vrel < 0.0:
+            return 0.0, vrel, BAD_STATE, n_evals
+        tau = (theta_e - phase) / w
+    elif not vrel > 0.0:
+        return 0.0, vrel, BAD_STATE, n_evals
+
+    # Interval in which the particle is above +A, the plate's highest point.
+    v_abs = vrel - A * w * c0
+    h_above = A + A * s0  # +A minus the plate height -A s0 at the start, >= 0
+    tau_up = math.inf
+    tau_down = -math.inf
+    disc = v_abs * v_abs - 2.0 * g * h_above
+    if v_abs > 0.0 and disc > 0.0:
+        tau_down = (v_abs + math.sqrt(disc)) / g
+        tau_up = 2.0 * h_above / (g * tau_down)
+    if tau > 0.0:
+        if tau_up < tau < tau_down:
+            tau = tau_down
+        G, Gp, sn, cn = flat_gap_phase(vrel, g, A, w, s0, c0, tau)
+        n_evals += 1
+
+    for _ in range(ROOT_MAX_STEPS):
+        if G <= 0.0 and tau > 0.0:
+            return tau, min(Gp, 0.0), OK, n_evals
+        m = g + aw2 * sn
+        step = cubic_safe_step(G, Gp, m + m_pad, M, K)
+        if step <= ROOT_STEP_REL * tau:
+            return tau, min(Gp, 0.0), OK, n_evals
+        tau_next = tau + step
+        if tau_up < tau_next < tau_down:
+            tau_next = tau_down
+        else:
+            # Upper Taylor bound just past the step: if it is negative, the contact
+            # lies within ROOT_STEP_REL tau after tau_next, and G' there follows
+            # from its own Taylor series (remainder <= A w^4 s^3 / 6, below eps G').
+            s = step + ROOT_STEP_REL * tau_next
+            upper = G + s * (Gp - s * (0.5 * m - s * (K / 6.0)))
+            if upper < 0.0 and L * step * step * step <= 6.0 * EPS * abs(Gp):
+                Gp_next = Gp - step * (m + 0.5 * step * K * cn)
+                return tau_next, min(Gp_next, 0.0), OK, n_evals
+        tau = tau_next
+        G, Gp, sn, cn = flat_gap_phase(vrel, g, A, w, s0, c0, tau)
+        n_evals += 1
+    return tau, Gp, ROOT_NOT_CONVERGED, n_evals
 
 
 @njit(cache=True)
@@ -106,48 +210,8 @@ def flat_flight(phase, vrel, kp):
         ``OK``, ``BAD_STATE`` (vrel <= 0 where the plate holds the particle) or
         ``ROOT_NOT_CONVERGED``.
     """
-    A, w, g, M = kp.A, kp.w, kp.g, kp.curv_bound
-    s0 = math.sin(phase)
-    c0 = math.cos(phase)
-    tau = 0.0
-    G = 0.0
-    Gp = vrel
-    # Cheap superset of the release window sin(phase) < -1/Gamma before the asin.
-    if kp.gamma * s0 < -1.0 + 1e-9:
-        theta_r, theta_e = release_window(kp.gamma)
-    else:
-        theta_r, theta_e = -1.0, -1.0
-    if theta_r <= phase < theta_e:
-        # G'' > 0 until theta_e and G(0) = 0, G'(0) >= 0: no contact before theta_e.
-        if vrel < 0.0:
-            return 0.0, vrel, BAD_STATE
-        tau = (theta_e - phase) / w
-        G, Gp = flat_gap(vrel, g, A, w, s0, c0, tau)
-    elif not vrel > 0.0:
-        return 0.0, vrel, BAD_STATE
-
-    # Interval in which the particle is above +A, the plate's highest point.
-    v_abs = vrel - A * w * c0
-    h_above = A + A * s0  # +A minus the plate height -A s0 at the start, >= 0
-    tau_up = math.inf
-    tau_down = -math.inf
-    disc = v_abs * v_abs - 2.0 * g * h_above
-    if v_abs > 0.0 and disc > 0.0:
-        tau_down = (v_abs + math.sqrt(disc)) / g
-        tau_up = 2.0 * h_above / (g * tau_down)
-
-    for _ in range(ROOT_MAX_STEPS):
-        if tau_up < tau < tau_down:
-            tau = tau_down
-            G, Gp = flat_gap(vrel, g, A, w, s0, c0, tau)
-        if G <= 0.0 and tau > 0.0:
-            return tau, min(Gp, 0.0), OK
-        step = safe_step(G, Gp, M)
-        if step <= ROOT_STEP_REL * tau:
-            return tau, min(Gp, 0.0), OK
-        tau += step
-        G, Gp = flat_gap(vrel, g, A, w, s0, c0, tau)
-    return tau, Gp, ROOT_NOT_CONVERGED
+    tau, vrel_minus, status, _ = flat_flight_evals(phase, vrel, kp)
+    return tau, vrel_minus, status
 
 
 @njit(cache=True, inline="always")
@@ -159,14 +223,15 @@ def chatter_time(phase, vrel, kp):
     (``g_eff <= 0`` somewhere in the interval), or for ``alpha = 1``.
     """
     A, w, g, alpha = kp.A, kp.w, kp.g, kp.alpha
-    g_eff = g + A * w * w * math.sin(phase)
+    sin_p, cos_p = sin_cos(phase)
+    g_eff = g + A * w * w * sin_p
     if g_eff <= 0.0 or alpha >= 1.0:
         return math.inf
     tau_inf = 2.0 * vrel / (g_eff * (1.0 - alpha))
     # g_eff must stay positive over the interval: its rate is at most A w^3.
     if A * w * w * w * tau_inf >= 0.5 * g_eff:
         return math.inf
-    dg = A * w * w * w * abs(math.cos(phase)) + A * w * w * w * w * tau_inf
+    dg = A * w * w * w * abs(cos_p) + A * w * w * w * w * tau_inf
     if dg * tau_inf * tau_inf > CHATTER_REL_TOL * kp.period * g_eff:
         return math.inf
     return tau_inf
@@ -206,7 +271,7 @@ def flat_event(periods, phase, vrel, kind, kp):
     vrel_plus = -kp.alpha * vrel_minus
     if not math.isfinite(vrel_plus):
         return periods, phase, vrel_plus, IMPACT, NON_FINITE
-    g_eff = kp.g + kp.A * kp.w * kp.w * math.sin(phase)
+    g_eff = kp.g + kp.A * kp.w * kp.w * sin_cos(phase)[0]
     if g_eff > 0.0:
         if vrel_plus == 0.0:
             return periods, phase, 0.0, STICK, OK
