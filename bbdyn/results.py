@@ -18,7 +18,7 @@ from typing import Any, ClassVar
 
 import numpy as np
 
-__all__ = ["Result", "make_meta", "load_result", "write_json_atomic"]
+__all__ = ["Result", "make_meta", "load_result", "result_paths", "write_json_atomic"]
 
 _REGISTRY: dict[str, type[Result]] = {}
 
@@ -53,6 +53,19 @@ def _jsonable(value: Any) -> Any:
     if isinstance(value, np.ndarray):
         return value.tolist()
     return value
+
+
+def result_paths(path: str | os.PathLike) -> tuple[Path, Path]:
+    """The ``(NAME.npz, NAME.json)`` pair of a result saved as ``path``.
+
+    ``path`` may end in ``.npz`` or ``.json`` or in neither; any other dot in the
+    name is kept (``f_50.200000000`` -> ``f_50.200000000.npz``), never taken
+    for a suffix.
+    """
+    path = Path(path)
+    if path.suffix in (".npz", ".json"):
+        path = path.with_suffix("")
+    return path.with_name(path.name + ".npz"), path.with_name(path.name + ".json")
 
 
 def write_json_atomic(path: str | os.PathLike, obj: Any) -> Path:
@@ -94,13 +107,13 @@ class Result:
 
     def save(self, path: str | os.PathLike) -> Path:
         """Save to ``path.npz`` and ``path.json`` (atomically); returns the .json path."""
-        path = Path(path)
-        path.parent.mkdir(parents=True, exist_ok=True)
-        fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=path.name, suffix=".npz.tmp")
+        npz_path, json_path = result_paths(path)
+        npz_path.parent.mkdir(parents=True, exist_ok=True)
+        fd, tmp = tempfile.mkstemp(dir=npz_path.parent, prefix=npz_path.name, suffix=".tmp")
         with os.fdopen(fd, "wb") as fh:
             np.savez(fh, **self.arrays)
-        os.replace(tmp, path.with_suffix(".npz"))
-        return write_json_atomic(path.with_suffix(".json"), {"kind": self.kind, "meta": self.meta})
+        os.replace(tmp, npz_path)
+        return write_json_atomic(json_path, {"kind": self.kind, "meta": self.meta})
 
     @classmethod
     def load(cls, path: str | os.PathLike) -> Result:
@@ -117,13 +130,13 @@ class Result:
 
 def load_result(path: str | os.PathLike) -> Result:
     """Load any saved result; the class is chosen by the ``kind`` stored in its JSON."""
-    path = Path(path).with_suffix("")
-    with open(path.with_suffix(".json")) as fh:
+    npz_path, json_path = result_paths(path)
+    with open(json_path) as fh:
         header = json.load(fh)
     kind = header.get("kind")
     if kind not in _REGISTRY:
-        raise ValueError(f"{path}.json: unknown result kind {kind!r}")
-    with np.load(path.with_suffix(".npz"), allow_pickle=False) as data:
+        raise ValueError(f"{json_path}: unknown result kind {kind!r}")
+    with np.load(npz_path, allow_pickle=False) as data:
         arrays = {k: data[k] for k in data.files}
     obj = _REGISTRY[kind].__new__(_REGISTRY[kind])
     Result.__init__(obj, arrays, header["meta"])

@@ -35,7 +35,7 @@ from typing import Any, TextIO
 import numpy as np
 
 from bbdyn.progress import Progress, progress_stream
-from bbdyn.results import Result, make_meta, write_json_atomic
+from bbdyn.results import Result, make_meta, result_paths, write_json_atomic
 
 __all__ = [
     "KEY_SCALE",
@@ -171,7 +171,7 @@ def _prepare_out_dir(out_dir: Path, manifest: dict[str, Any], resume: bool) -> N
 
 
 def _is_done(stem: Path) -> bool:
-    return stem.with_suffix(".json").exists() and stem.with_suffix(".npz").exists()
+    return all(p.exists() for p in result_paths(stem))
 
 
 # ---- one point, in a worker -----------------------------------------------------------------

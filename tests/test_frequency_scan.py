@@ -224,12 +224,6 @@ def test_partial_of_diffusion_point_is_recorded_in_the_manifest(tmp_path):
     assert functools.partial(diffusion_point, n=6, t=1.0)(60.0, np.random.SeedSequence(0))
 
 
-@pytest.mark.xfail(
-    strict=True,
-    raises=AssertionError,
-    reason="bbdyn.scan names points f_60.200000000 and Path.with_suffix replaces '.200000000': "
-    "values with the same integer part share one file (reported; scan.py is not ours)",
-)
 def test_scan_on_a_fine_grid_keeps_every_point(tmp_path):
     freqs = [85.0, 85.2]
     scan = frequency_scan(freqs, out_dir=tmp_path / "fine", seed=2, workers=1, **TINY)

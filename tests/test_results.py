@@ -50,3 +50,14 @@ def test_load_checks_the_class(tmp_path):
     path = _Toy({"x": np.zeros(1)}, {}).save(tmp_path / "a")
     with pytest.raises(TypeError, match="not a _Other"):
         _Other.load(path)
+
+
+def test_dots_in_the_name_are_not_taken_for_a_suffix(tmp_path):
+    """Points of a 0.2 Hz scan are named f_50.000000000, f_50.200000000: they must not collide."""
+    for value in (0.0, 0.2):
+        _Toy({"x": np.array([value])}, {}).save(tmp_path / f"f_50.{round(value * 1e9):09d}")
+    assert sorted(p.name for p in tmp_path.iterdir()) == [
+        "f_50.000000000.json", "f_50.000000000.npz", "f_50.200000000.json", "f_50.200000000.npz",
+    ]  # fmt: skip
+    assert load_result(tmp_path / "f_50.200000000")["x"][0] == 0.2
+    assert load_result(tmp_path / "f_50.200000000.json")["x"][0] == 0.2

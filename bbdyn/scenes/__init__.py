@@ -4,7 +4,8 @@ Each scene module defines
 
 * ``TITLE``: one line;
 * ``QUICK`` and ``FULL``: dicts of settings (quick: seconds to a minute on 2 cores);
-* ``compute(settings, seed) -> Result``: computes only what the figure needs;
+* ``compute(settings, seed[, out_dir]) -> Result``: computes only what the figure needs
+  (scenes built on frequency scans take ``out_dir`` and keep their scan there);
 * ``draw(result, ax=None)``: draws a saved or fresh result, returns the figure.
 
 ``run_scene`` computes, saves the numbers (``<id>.npz`` / ``<id>.json``, with
@@ -15,6 +16,8 @@ side, so a figure can be redrawn from its data with ``redraw_scene``.
 from __future__ import annotations
 
 import importlib
+import inspect
+import json
 import time
 from pathlib import Path
 
@@ -54,8 +57,13 @@ def run_scene(scene_id: str, *, quick: bool = True, out_dir: str | Path = "out",
 
     module = scene_module(scene_id)
     settings = dict(module.QUICK if quick else module.FULL)
+    out_dir = Path(out_dir)
     start = time.perf_counter()
-    result = module.compute(settings, seed)
+    if "out_dir" in inspect.signature(module.compute).parameters:
+        # scenes built on scans keep them under out_dir, so an interrupted run resumes
+        result = module.compute(settings, seed, out_dir=out_dir)
+    else:
+        result = module.compute(settings, seed)
     result.meta.update(
         scene=scene_id.upper(),
         setting="quick" if quick else "full",
@@ -63,7 +71,6 @@ def run_scene(scene_id: str, *, quick: bool = True, out_dir: str | Path = "out",
         seed=seed,
         scene_wall_s=time.perf_counter() - start,
     )
-    out_dir = Path(out_dir)
     result.save(out_dir / scene_id.upper())
     fig = module.draw(result)
     png = out_dir / f"{scene_id.upper()}.png"
@@ -79,11 +86,14 @@ def redraw_scene(json_path: str | Path) -> Path:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from bbdyn.results import load_result
+    from bbdyn.results import load_result, result_paths
 
-    result = load_result(json_path)
-    fig = scene_module(result.meta["scene"]).draw(result)
-    png = Path(json_path).with_suffix(".png")
+    _, json_path = result_paths(json_path)
+    with open(json_path) as fh:
+        scene_id = json.load(fh)["meta"]["scene"]
+    module = scene_module(scene_id)  # registers the scene's result class before loading
+    fig = module.draw(load_result(json_path))
+    png = json_path.with_suffix(".png")
     fig.savefig(png, dpi=150, bbox_inches="tight")
     plt.close(fig)
     return png
