@@ -63,7 +63,7 @@ from bbdyn.core.status import (
 from bbdyn.core.tolerances import CHATTER_REL_TOL, EPS, ROOT_MAX_STEPS, ROOT_STEP_REL
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, inline="always", error_model="numpy")
 def safe_step(G, Gp, M):
     """Positive root of ``G + Gp s - M s^2 / 2 = 0`` (G >= 0, M > 0), without cancellation."""
     r = math.sqrt(Gp * Gp + 2.0 * M * G)
@@ -72,7 +72,7 @@ def safe_step(G, Gp, M):
     return 2.0 * G / (r - Gp)
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, inline="always", error_model="numpy")
 def flat_gap_phase(vrel, g, A, w, s0, c0, tau):
     """Gap G (mm), its rate G' (mm/s), and sin, cos of the phase theta + w tau.
 
@@ -90,14 +90,14 @@ def flat_gap_phase(vrel, g, A, w, s0, c0, tau):
     return G, Gp, s0 * cos_x + c0 * sin_x, c0 * cos_x - s0 * sin_x
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, inline="always", error_model="numpy")
 def flat_gap(vrel, g, A, w, s0, c0, tau):
     """Gap G (mm) and its rate G' (mm/s) at ``tau`` after an event at phase theta."""
     G, Gp, _, _ = flat_gap_phase(vrel, g, A, w, s0, c0, tau)
     return G, Gp
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, inline="always", error_model="numpy")
 def cubic_safe_step(G, Gp, m, M, K):
     """A step s > 0 before which the gap cannot vanish, from its cubic Taylor bound.
 
@@ -117,7 +117,7 @@ def cubic_safe_step(G, Gp, m, M, K):
     return safe_step(G, Gp, min(M, m + K * h * (1.0 / 3.0)))
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def flat_flight_evals(phase, vrel, kp):
     """``flat_flight`` that also returns the number of gap evaluations it made.
 
@@ -187,7 +187,7 @@ def flat_flight_evals(phase, vrel, kp):
     return tau, Gp, ROOT_NOT_CONVERGED, n_evals
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def flat_flight(phase, vrel, kp):
     """Time to the first contact after an event, and the relative velocity there.
 
@@ -214,7 +214,7 @@ def flat_flight(phase, vrel, kp):
     return tau, vrel_minus, status
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, inline="always", error_model="numpy")
 def chatter_time(phase, vrel, kp):
     """Accumulation time (s) of the chattering sequence started with ``vrel`` at ``phase``.
 
@@ -223,21 +223,30 @@ def chatter_time(phase, vrel, kp):
     (``g_eff <= 0`` somewhere in the interval), or for ``alpha = 1``.
     """
     A, w, g, alpha = kp.A, kp.w, kp.g, kp.alpha
+    M = kp.curv_bound
+    # Necessary condition first, without sin/cos: g_eff <= M, so tau_inf >= 2 vrel / (M (1 - alpha))
+    # and the error estimate below is at least A w^4 tau_inf^3 / g_eff.
+    if alpha >= 1.0:
+        return math.inf
+    tol = CHATTER_REL_TOL * kp.period
+    v2 = 2.0 * vrel / (M * (1.0 - alpha))
+    if A * w * w * w * w * v2 * v2 * v2 > tol * M:
+        return math.inf
     sin_p, cos_p = sin_cos(phase)
     g_eff = g + A * w * w * sin_p
-    if g_eff <= 0.0 or alpha >= 1.0:
+    if g_eff <= 0.0:
         return math.inf
     tau_inf = 2.0 * vrel / (g_eff * (1.0 - alpha))
     # g_eff must stay positive over the interval: its rate is at most A w^3.
     if A * w * w * w * tau_inf >= 0.5 * g_eff:
         return math.inf
     dg = A * w * w * w * abs(cos_p) + A * w * w * w * w * tau_inf
-    if dg * tau_inf * tau_inf > CHATTER_REL_TOL * kp.period * g_eff:
+    if dg * tau_inf * tau_inf > tol * g_eff:
         return math.inf
     return tau_inf
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def flat_event(periods, phase, vrel, kind, kp):
     """Advance the flat ball from one event to the next.
 
@@ -271,18 +280,19 @@ def flat_event(periods, phase, vrel, kind, kp):
     vrel_plus = -kp.alpha * vrel_minus
     if not math.isfinite(vrel_plus):
         return periods, phase, vrel_plus, IMPACT, NON_FINITE
-    g_eff = kp.g + kp.A * kp.w * kp.w * sin_cos(phase)[0]
-    if g_eff > 0.0:
-        if vrel_plus == 0.0:
+    if vrel_plus == 0.0:
+        # alpha = 0 (or a contact at zero relative speed): stuck where the plate holds it
+        if kp.g + kp.A * kp.w * kp.w * sin_cos(phase)[0] > 0.0:
             return periods, phase, 0.0, STICK, OK
-        tau_inf = chatter_time(phase, vrel_plus, kp)
-        if tau_inf < math.inf:
-            periods, phase = advance_phase(periods, phase, kp.w * tau_inf)
-            return periods, phase, 0.0, STICK, OK
+        return periods, phase, 0.0, IMPACT, OK
+    tau_inf = chatter_time(phase, vrel_plus, kp)
+    if tau_inf < math.inf:
+        periods, phase = advance_phase(periods, phase, kp.w * tau_inf)
+        return periods, phase, 0.0, STICK, OK
     return periods, phase, vrel_plus, IMPACT, OK
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def flat_run(periods, phase, vrel, kind, kp, out_periods, out_phase, out_vrel, out_kind):
     """Iterate ``flat_event`` and write each event into the ``out_*`` arrays (in place).
 
@@ -299,7 +309,7 @@ def flat_run(periods, phase, vrel, kind, kp, out_periods, out_phase, out_vrel, o
     return out_phase.shape[0], OK
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def flat_run_count(periods, phase, vrel, kind, kp, n_events):
     """Iterate ``n_events`` events without storing them (for benchmarks and transients).
 
