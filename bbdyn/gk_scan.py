@@ -19,12 +19,13 @@ from __future__ import annotations
 
 import functools
 import math
+from pathlib import Path
 
 import numpy as np
 
 from bbdyn.params import Params
 
-__all__ = ["gk_run", "gk_numbers", "gk_point", "gk_scan"]
+__all__ = ["gk_run", "gk_numbers", "gk_point", "gk_scan", "gk_scan_folder", "gk_scene_scan"]
 
 #: First guess of the stored jumps per particle per simulated second.  Measured jump rates
 #: at the defaults stay below 7 /s (65-95 Hz); a run that overflows is repeated with
@@ -194,11 +195,6 @@ def gk_point(
     return gk_numbers(gk)
 
 
-def _gk_point_mhz(f_mhz: float, seed_sequence: np.random.SeedSequence, **kwargs) -> dict:
-    """``gk_point`` at ``f_mhz / 1000`` Hz (see ``gk_scan`` for why the scan runs in mHz)."""
-    return gk_point(f_mhz / 1000.0, seed_sequence, **kwargs)
-
-
 def gk_scan(
     frequencies,
     *,
@@ -212,32 +208,63 @@ def gk_scan(
     workers: int | None = None,
     progress=True,
 ):
-    """Run ``gk_point`` over ``frequencies`` (Hz, on a 1 mHz grid) with ``bbdyn.scan.run_scan``.
+    """Run ``gk_point`` over ``frequencies`` (Hz) with ``bbdyn.scan.run_scan``.
 
     Every finished frequency is stored in ``out_dir`` at once; the same call resumes an
-    interrupted scan (docs/scans.md).  Returns the ``ScanResult`` with ``f`` (Hz) and every
-    output of ``gk_numbers`` stacked over frequencies (``D_n``: shape (n_f, nmax + 1)).
-
-    The scanned value is the integer frequency in mHz (``f_mHz``): ``run_scan`` names a
-    point ``f_85.200000000`` and ``Result.save`` cuts that name at its last dot, so
-    points with the same integer part of a non-integer value overwrite each other.
-    Integer values are stored under distinct names.
+    interrupted scan (docs/scans.md).  Returns the ``ScanResult``: ``f`` and every output
+    of ``gk_numbers`` stacked over frequencies (``D_n`` has shape (n_f, nmax + 1)).
     """
     from bbdyn.scan import run_scan
 
-    f_mhz = np.round(np.asarray(frequencies, dtype=float) * 1000.0)
-    if np.any(np.abs(f_mhz / 1000.0 - np.asarray(frequencies, dtype=float)) > 1e-9):
-        raise ValueError(f"frequencies must lie on a 1 mHz grid, got {list(frequencies)}")
     kwargs = {"n": int(n), "t": float(t), "nmax": int(nmax), "n_boot": int(n_boot)}
-    scan = run_scan(
-        f_mhz.tolist(),
-        functools.partial(_gk_point_mhz, **kwargs),
+    return run_scan(
+        [float(f) for f in frequencies],
+        functools.partial(gk_point, **kwargs),
         out_dir=out_dir,
         seed=seed,
         resume=resume,
         workers=workers,
         progress=progress,
-        name="f_mHz",
     )
-    scan.arrays["f"] = scan.values / 1000.0
-    return scan
+
+
+def gk_scan_folder(settings: dict, seed: int, out_dir=None) -> Path:
+    """Folder of the scan of a scene setting: ``<out_dir>/scans/gk_<digest>``.
+
+    As ``bbdyn.frequency_scan.scan_folder``: the digest covers the grid, n, t, nmax,
+    the seed and the package version (S9 and S10 settings never share a folder with
+    each other or with S3-S5); ``out_dir`` defaults to ``$BBDYN_CACHE`` or
+    ``~/.cache/bbdyn``; ``settings["scan_dir"]`` names a folder explicitly.
+    """
+    import hashlib
+    import json
+    import os
+
+    from bbdyn import __version__
+
+    if settings.get("scan_dir"):
+        return Path(settings["scan_dir"])
+    if out_dir is None:
+        out_dir = os.environ.get("BBDYN_CACHE", Path.home() / ".cache" / "bbdyn")
+    keys = ("f_start", "f_stop", "f_step", "n", "t", "nmax")
+    defining = {k: settings.get(k) for k in keys} | {"seed": seed, "version": __version__}
+    digest = hashlib.sha256(json.dumps(defining, sort_keys=True).encode()).hexdigest()[:12]
+    return Path(out_dir) / "scans" / f"gk_{digest}"
+
+
+def gk_scene_scan(settings: dict, seed: int, out_dir=None):
+    """The scan of a scene setting on ``frequency_grid(f_start, f_stop, f_step)``, computed
+    or resumed in ``gk_scan_folder``; ``settings["workers"]`` and ``["progress"]`` optional."""
+    from bbdyn.frequency_scan import frequency_grid
+
+    grid = frequency_grid(settings["f_start"], settings["f_stop"], settings["f_step"])
+    return gk_scan(
+        grid,
+        out_dir=gk_scan_folder(settings, seed, out_dir),
+        seed=seed,
+        n=settings["n"],
+        t=settings["t"],
+        nmax=settings.get("nmax", 1),
+        workers=settings.get("workers"),
+        progress=settings.get("progress", False),
+    )

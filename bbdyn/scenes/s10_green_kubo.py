@@ -6,7 +6,8 @@ n = 0..nmax from the jumps of the same simulation, with bootstrap errors.  Drawn
 D and D_n for n in ``orders`` (0, 2, 4, 7 and nmax); key numbers: how close each
 order comes to D over the grid.
 
-``scan_dir`` (optional) keeps the scan points on disk, so an interrupted full run resumes.
+The scan points are kept on disk (``bbdyn.gk_scan.gk_scan_folder``), so an interrupted
+full run resumes where it stopped.
 """
 
 from __future__ import annotations
@@ -20,10 +21,8 @@ from bbdyn.scenes.s9_random_walk import scan_points
 
 TITLE = "Green-Kubo: Einstein D and truncated D_n (n = 0, 2, 4, 7, 10) on a fine f grid"
 _GRID = {"f_start": 84.6, "f_stop": 86.4}
-QUICK = {**_GRID, "f_step": 0.2, "n": 100, "t": 40.0, "nmax": 10, "orders": [0, 2, 4, 7, 10],
-         "scan_dir": None}  # fmt: skip
-FULL = {**_GRID, "f_step": 0.01, "n": 1000, "t": 200.0, "nmax": 10, "orders": [0, 2, 4, 7, 10],
-        "scan_dir": None}  # fmt: skip
+QUICK = {**_GRID, "f_step": 0.2, "n": 100, "t": 40.0, "nmax": 10, "orders": [0, 2, 4, 7, 10]}
+FULL = {**_GRID, "f_step": 0.01, "n": 1000, "t": 200.0, "nmax": 10, "orders": [0, 2, 4, 7, 10]}
 
 KEYS = ("D", "D_err", "D_n", "D_n_err", "tau", "p_f", "p_b")
 
@@ -39,8 +38,9 @@ class SceneS10Result(Result):
         return ax if ax is not None else fig.axes[0]
 
 
-def compute(settings: dict, seed: int = 0) -> SceneS10Result:
-    """Scan ``settings`` (grid in Hz, ``n``, ``t`` s, ``nmax``, ``orders``, ``scan_dir``)."""
+def compute(settings: dict, seed: int = 0, out_dir=None) -> SceneS10Result:
+    """Scan ``settings`` (grid in Hz, ``n``, ``t`` s, ``nmax``, ``orders``); the scan is kept
+    in ``bbdyn.gk_scan.gk_scan_folder(settings, seed, out_dir)``, so a rerun resumes it."""
     from bbdyn import Params
 
     start = time.perf_counter()
@@ -48,7 +48,7 @@ def compute(settings: dict, seed: int = 0) -> SceneS10Result:
     orders = np.array(sorted(set(settings["orders"])), dtype=int)
     if orders[0] < 0 or orders[-1] > nmax:
         raise ValueError(f"orders must lie in [0, nmax = {nmax}], got {orders.tolist()}")
-    arrays, scan_meta = scan_points(settings, seed, nmax=nmax, keys=KEYS)
+    arrays, scan_meta = scan_points(settings, seed, out_dir, keys=KEYS)
     arrays["orders"] = orders
     D, D_err = arrays["D"], arrays["D_err"]
     key = {"frequencies": f"{D.size} from {arrays['f'][0]:g} to {arrays['f'][-1]:g} Hz"}

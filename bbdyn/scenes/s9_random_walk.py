@@ -7,13 +7,13 @@ with the energy ratio ``r = E_y / E_x`` measured there (drawn in a second panel)
 ``D_a`` does not exist for Gamma < 2 (f < 70.46 Hz at the defaults): the energy
 balance leaves no kinetic energy; those frequencies are shaded and counted, not filled.
 
-``scan_dir`` (optional) keeps the scan points on disk, so an interrupted full run resumes.
+The scan points are kept on disk (``bbdyn.gk_scan.gk_scan_folder``), so an interrupted
+full run resumes where it stopped.
 """
 
 from __future__ import annotations
 
 import math
-import tempfile
 import time
 
 import numpy as np
@@ -21,8 +21,8 @@ import numpy as np
 from bbdyn.results import Result, make_meta
 
 TITLE = "Random walk: Einstein D, D_rw (tau from simulation) and D_a (measured r) against f"
-QUICK = {"f_start": 66.0, "f_stop": 94.0, "f_step": 2.0, "n": 100, "t": 40.0, "scan_dir": None}
-FULL = {"f_start": 65.8, "f_stop": 95.0, "f_step": 0.2, "n": 1000, "t": 200.0, "scan_dir": None}
+QUICK = {"f_start": 66.0, "f_stop": 94.0, "f_step": 2.0, "n": 100, "t": 40.0}
+FULL = {"f_start": 65.8, "f_stop": 95.0, "f_step": 0.2, "n": 1000, "t": 200.0}
 
 #: Outputs of the scan kept by the scene.
 KEYS = ("D", "D_err", "D_rw", "D_rw_err", "D_a", "D_a_err", "r", "r_err", "tau", "tau_err")
@@ -39,31 +39,25 @@ class SceneS9Result(Result):
         return ax if ax is not None else fig.axes[0]
 
 
-def scan_points(settings: dict, seed: int, *, nmax: int, keys):
-    """Run (or resume) ``gk_scan`` on the grid of ``settings``; the ``keys`` outputs by f."""
-    from bbdyn.frequency_scan import frequency_grid
-    from bbdyn.gk_scan import gk_scan
+def scan_points(settings: dict, seed: int, out_dir, *, keys):
+    """The ``keys`` outputs of ``gk_scene_scan`` (computed or resumed), sorted by f."""
+    from bbdyn.gk_scan import gk_scene_scan
 
-    grid = frequency_grid(settings["f_start"], settings["f_stop"], settings["f_step"])
-    kwargs = {"seed": seed, "n": settings["n"], "t": settings["t"], "nmax": nmax}
-    if settings.get("scan_dir"):
-        scan = gk_scan(grid, out_dir=settings["scan_dir"], progress=False, **kwargs)
-    else:
-        with tempfile.TemporaryDirectory(prefix="bbdyn_gk_") as tmp:
-            scan = gk_scan(grid, out_dir=tmp, progress=False, **kwargs)
-    order = np.argsort(scan["f"])
-    arrays = {"f": scan["f"][order]}
+    scan = gk_scene_scan(settings, seed, out_dir)
+    order = np.argsort(scan.values)
+    arrays = {"f": scan.values[order]}
     arrays.update({k: scan[k][order] for k in keys})
     return arrays, scan.meta
 
 
-def compute(settings: dict, seed: int = 0) -> SceneS9Result:
+def compute(settings: dict, seed: int = 0, out_dir=None) -> SceneS9Result:
     """Scan the frequencies of ``settings`` (``f_start``, ``f_stop``, ``f_step`` in Hz, ``n``
-    particles, ``t`` s, ``scan_dir`` or None) and collect D, D_rw, D_a, r."""
+    particles, ``t`` s) and collect D, D_rw, D_a, r; the scan is kept in
+    ``bbdyn.gk_scan.gk_scan_folder(settings, seed, out_dir)``, so a rerun resumes it."""
     from bbdyn import Params
 
     start = time.perf_counter()
-    arrays, scan_meta = scan_points(settings, seed, nmax=1, keys=KEYS)
+    arrays, scan_meta = scan_points(settings, seed, out_dir, keys=KEYS)
     f = arrays["f"]
     arrays["gamma"] = np.array([Params(f=v).gamma for v in f])
     p0 = Params(f=float(f[0]))
