@@ -13,17 +13,26 @@ with ``tau`` the time since the event (see ``plate.py`` for ``rise`` and ``dvel`
     G'(tau) = vrel - g tau - dvel(tau)                  (mm/s)
     G''     = -g - A w^2 sin(theta + w tau),  so  -G'' <= M = g + A w^2.
 
-First contact (the guarantee).  From a point ``tau_a`` with ``G(tau_a) > 0`` the
-Taylor bound ``G(tau_a + s) >= G + G' s - M s^2 / 2`` holds for every s, so the
-gap cannot vanish before the positive root ``s*`` of the right-hand side.  The
-search steps by ``s*`` (a "safe step") and therefore never passes a contact; it
-also skips, in one jump, the interval where the particle is above the plate's
-highest point ``+A``, and the interval where the plate accelerates downward
-faster than g (``G'' > 0``: no contact can start there).  Near a transversal
-contact the safe step is a Newton step corrected by the curvature bound
-(quadratic convergence from below); at an exactly tangential (grazing) contact
-it converges linearly.  The search stops when the safe step is below
-``ROOT_STEP_REL`` times the flight time, or when rounding makes ``G <= 0``.
+First contact (the guarantee).  From a point ``tau_a`` with ``G(tau_a) > 0``,
+``m = -G''(tau_a)`` (free from the sin/cos already computed) and
+``|G'''| <= K = A w^3``, the cubic Taylor bound
+``G(tau_a + s) >= G + G' s - m s^2 / 2 - K s^3 / 6`` holds for every s, and so does
+the global quadratic one with ``-G'' <= M``.  The search steps by a lower bound of
+the first positive root of these bounds (``cubic_safe_step``, a "safe step") and
+therefore never passes a contact; it also skips, in one jump and without
+evaluating inside it, the interval where the particle is above the plate's
+highest point ``+A``, and the interval where the plate accelerates downward faster
+than g (``G'' > 0``: no contact can start there).  Near a transversal contact the
+error falls as ``e -> K e^3 / (3 |G'|)`` (cubic convergence from below); at an
+exactly tangential (grazing) contact it converges linearly.  The search stops
+when the upper Taylor bound ``G + G' s - m s^2 / 2 + K s^3 / 6`` is already
+negative ``ROOT_STEP_REL`` times the flight time after the next safe step (the
+contact is then bracketed to that width, and G' there follows from its Taylor
+series to below eps |G'|, so that last evaluation is skipped), when the safe step
+is below ``ROOT_STEP_REL`` times the flight time, or when rounding makes ``G <= 0``.
+All bounds hold up to the rounding of G, G', G'' (a few ulp of their terms).
+Kernels use ``error_model="numpy"``: they never raise; a division by zero gives
+inf or nan, which the statuses report.
 
 Impact law: ``v+ - u = alpha (u - v-)``, i.e. ``vrel+ = -alpha vrel-``.
 
