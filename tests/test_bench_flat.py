@@ -5,13 +5,24 @@ import math
 
 import numpy as np
 import pytest
+from scipy.optimize import brentq
 
 from bbdyn import cli
 from bbdyn.benchmarking.fixed_step import fixed_step_one_step, fixed_step_run
-from bbdyn.benchmarking.flat import case_params, exact_one_step, ivp_flight
-from bbdyn.core.flat import flat_run, flat_run_count
+from bbdyn.benchmarking.flat import (
+    case_params,
+    exact_one_step,
+    ivp_flight,
+    one_step_errors,
+    start_states,
+)
+from bbdyn.core.flat import flat_flight, flat_flight_tol, flat_run, flat_run_count
 from bbdyn.core.status import IMPACT, OK
-from bbdyn.core.tolerances import EPS
+from bbdyn.core.tolerances import EPS, ROOT_STEP_REL
+
+#: Stopping tolerances of the exact map compared in the benchmark, loosest first.
+STEP_RELS = [1e-4, 1e-7, 1e-10, 1e-13, ROOT_STEP_REL]
+STEP_REL_IDS = ["1e-4", "1e-7", "1e-10", "1e-13", "default"]
 
 
 @pytest.fixture(scope="module")
@@ -27,8 +38,118 @@ def orbit():
     keep = out[3] == IMPACT  # start only from impacts (a release starts with vrel = 0)
     phases, vrels = out[1][keep], out[2][keep]
     tau, vm = np.empty(phases.size), np.empty(phases.size)
-    assert exact_one_step(phases, vrels, kp, tau, vm) == OK
+    assert exact_one_step(phases, vrels, kp, ROOT_STEP_REL, tau, vm)[1] == OK
     return kp, phases, vrels, tau, vm
+
+
+@pytest.fixture(scope="module")
+def reference():
+    """Start states on the orbit and the mpmath one-step reference from each (40 digits)."""
+    params = case_params()
+    return params.kernel(), start_states(params, 30)
+
+
+def test_exact_one_step_at_the_default_tolerance_is_flat_flight(orbit):
+    """The benchmark's default row measures exactly what flat_flight returns."""
+    kp, phases, vrels, tau, vm = orbit
+    for i in range(phases.size):
+        assert flat_flight(phases[i], vrels[i], kp) == (tau[i], vm[i], OK)
+
+
+@pytest.mark.parametrize("step_rel", STEP_RELS, ids=STEP_REL_IDS)
+def test_exact_map_one_step_error_is_within_the_documented_bound(reference, step_rel):
+    """Never late (beyond rounding), early by at most d (1 + M d / |G'|), d = step_rel tau.
+
+    The bound is flat_flight_tol's for a transversal contact (all flights of the
+    benchmark orbit are); v+ = -alpha vrel- + u then errs by at most
+    (alpha M + A w^2) times the time error, |G''| <= M and |u'| <= A w^2.
+    """
+    kp, st = reference
+    tau, vm = np.empty(st["tau"].size), np.empty(st["tau"].size)
+    assert exact_one_step(st["phase"], st["vrel"], kp, step_rel, tau, vm)[1] == OK
+    M, aw2 = kp.curv_bound, kp.A * kp.w**2
+    d = step_rel * st["tau"]
+    # a gap rounding error e (a few ulp of its terms) moves the contact by e / |G'|
+    rounding = 8 * EPS * (st["vrel"] * tau + kp.g * tau**2 / 2 + 2 * kp.A) / np.abs(vm)
+    early = st["tau"] - tau
+    assert np.all(early >= -rounding)
+    bound = d * (1 + 2 * M * d / np.abs(vm)) + rounding
+    assert np.all(early <= bound)
+    # the same bound on v+, plus the rounding of its terms (v, u, the phase of u)
+    scale = np.abs(vm) + st["vrel"] + 2 * kp.A * kp.w + kp.g * tau
+    scale += kp.A * kp.w * (st["phase"] + kp.w * tau)
+    dv = np.abs(-kp.alpha * vm - kp.A * kp.w * np.cos(st["phase"] + kp.w * tau) - st["v"])
+    assert np.all(dv <= (kp.alpha * M + aw2) * bound + 16 * EPS * scale)
+    errors = one_step_errors(kp, st, tau, vm)
+    assert errors["wrong_contacts"] == 0 and errors["max_time_error_s"] == np.max(np.abs(early))
+
+
+def test_exact_map_cost_does_not_grow_as_the_tolerance_loosens(orbit):
+    """The iterates do not depend on step_rel, only where they stop: per flight, a looser
+    tolerance stops at an earlier iterate (tau no later) after no more gap evaluations."""
+    kp, phases, vrels, _, _ = orbit
+    taus, evals = [], []
+    for step_rel in STEP_RELS:
+        out = np.array(
+            [flat_flight_tol(p, v, kp, step_rel) for p, v in zip(phases, vrels, strict=True)]
+        )
+        assert np.all(out[:, 2] == OK)
+        taus.append(out[:, 0])
+        evals.append(out[:, 3])
+    for loose, tight in zip(range(len(STEP_RELS) - 1), range(1, len(STEP_RELS)), strict=True):
+        assert np.all(evals[loose] <= evals[tight]), STEP_REL_IDS[loose]
+        assert np.all(taus[loose] <= taus[tight]), STEP_REL_IDS[loose]
+    # and the tolerance is used: the loosest saves evaluations over the default
+    assert evals[0].sum() < evals[-1].sum()
+
+
+def _tangent_flight(kp, theta_c, h):
+    """Start (phase, vrel) of a flight whose gap has a minimum h (mm) at phase theta_c.
+
+    The parabola with the plate's height + h and velocity at t_c = theta_c / w
+    (sin theta_c < -1/Gamma, so G'' > 0 there: a minimum), followed back to its
+    previous contact with the plate, the largest root of the gap before t_c.
+    """
+    A, w, g = kp.A, kp.w, kp.g
+    t_c = theta_c / w
+
+    def gap(t):
+        y = -A * math.sin(theta_c) + h - A * w * math.cos(theta_c) * (t - t_c)
+        return y - g * (t - t_c) ** 2 / 2 + A * math.sin(w * t)
+
+    grid = t_c - np.linspace(1e-4, 2 * kp.period, 20_001)
+    i = next(i for i in range(grid.size) if gap(grid[i]) <= 0)
+    t0 = brentq(gap, grid[i], grid[i - 1], xtol=1e-300, rtol=4 * EPS)
+    v0 = -A * w * math.cos(theta_c) + g * (t_c - t0)
+    return (w * t0) % (2 * math.pi), v0 + A * w * math.cos(w * t0), t_c - t0
+
+
+@pytest.mark.parametrize(
+    ("h_over_bound", "step_rel"),
+    [
+        pytest.param(0.0, 1e-4, id="tangent_1e-4"),
+        pytest.param(0.5, 1e-4, id="near_miss_below_bound_1e-4"),
+        pytest.param(0.5, 1e-7, id="near_miss_below_bound_1e-7"),
+    ],
+)
+def test_loose_tolerance_stops_near_a_tangency(h_over_bound, step_rel):
+    """A gap minimum h below M d^2 / 2 (d = step_rel tau) is reported as a contact, early by
+    at most (1 + sqrt 2) d (linear convergence e -> (2 - sqrt 2) e, stopped when the step
+    (sqrt 2 - 1) e <= d; first order in w d = 4e-4 here), as documented; the default
+    tolerance flies past a true near miss."""
+    kp = case_params().kernel()
+    theta_c = 1.5 * math.pi + 0.2  # sin = -0.98 < -1/Gamma = -0.37
+    M = kp.curv_bound
+    _, _, tau_c = _tangent_flight(kp, theta_c, 0.0)
+    d = step_rel * tau_c
+    h = h_over_bound * M * d * d / 2
+    phase, vrel, tau_c = _tangent_flight(kp, theta_c, h)
+    tau, _, status, _ = flat_flight_tol(phase, vrel, kp, step_rel)
+    assert status == OK
+    assert 0 <= tau_c - tau <= (1 + math.sqrt(2)) * d
+    if h > 0:
+        tau_default, _, status = flat_flight(phase, vrel, kp)
+        assert status == OK and tau_default > tau_c + 0.01 * kp.period
 
 
 def _fixed(kp, phases, vrels, dt, dt_min):

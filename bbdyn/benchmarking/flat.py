@@ -3,7 +3,10 @@
 Three ways to find the next impact are compared against the mpmath reference
 ``bbdyn.flat_reference.reference_impacts``:
 
-* ``exact``: bbdyn's first-contact search ``bbdyn.core.flat.flat_flight``;
+* ``exact``: bbdyn's first-contact search ``bbdyn.core.flat.flat_flight_tol``,
+  at the default stopping tolerance ``ROOT_STEP_REL`` (that of ``flat_flight``)
+  and at looser ones (``step_rel``: the contact time is then early by up to
+  about ``step_rel`` times the flight);
 * ``fixed_step``: the paper-like sampler of ``bbdyn.benchmarking.fixed_step``
   (flight sampled at ``dt``, the crossing halved down to ``dt_min``);
 * ``solve_ivp``: scipy's RK45 / DOP853 with a terminal event, either in the lab
@@ -38,7 +41,7 @@ from numba import njit
 
 from bbdyn.benchmarking.fixed_step import fixed_step_one_step, fixed_step_run
 from bbdyn.benchmarking.timing import measure, single_thread
-from bbdyn.core.flat import flat_flight, flat_run, flat_run_count
+from bbdyn.core.flat import flat_flight_tol, flat_run, flat_run_count
 from bbdyn.core.plate import TWO_PI
 from bbdyn.core.status import IMPACT, OK, STICK, raise_for_status
 from bbdyn.core.tolerances import EPS, ROOT_STEP_REL
@@ -76,6 +79,7 @@ WRONG_CONTACT_REL = 0.01
 
 QUICK: dict[str, Any] = {
     "n_impacts": 40,
+    "exact_tols": [1e-4, 1e-10],
     "fixed": [(1e-4, 1e-6), (1e-5, 1e-6), (1e-4, 1e-8)],
     "ivp": [
         ("RK45", "lab", 1e-6, math.inf),
@@ -90,6 +94,7 @@ QUICK: dict[str, Any] = {
 }
 FULL: dict[str, Any] = {
     "n_impacts": 300,
+    "exact_tols": [1e-4, 1e-7, 1e-10, 1e-13],
     "fixed": [
         (1e-4, 1e-6),
         (1e-5, 1e-6),
@@ -156,15 +161,21 @@ def start_states(params: Params, n_impacts: int) -> dict[str, np.ndarray]:
 
 
 @njit(cache=True)
-def exact_one_step(phases, vrels, kp, out_tau, out_vrel_minus):
-    """``flat_flight`` from each start state in turn (in place); returns the first bad status."""
+def exact_one_step(phases, vrels, kp, step_rel, out_tau, out_vrel_minus):
+    """``flat_flight_tol`` at ``step_rel`` from each start state in turn (in place).
+
+    Returns ``(n_evals, status)``: the gap evaluations of all flights and the
+    first bad status (``OK`` if none).  ``step_rel = ROOT_STEP_REL`` is ``flat_flight``.
+    """
+    n_evals = 0
     for i in range(phases.shape[0]):
-        tau, vm, status = flat_flight(phases[i], vrels[i], kp)
+        tau, vm, status, n = flat_flight_tol(phases[i], vrels[i], kp, step_rel)
+        n_evals += n
         if status != OK:
-            return status
+            return n_evals, status
         out_tau[i] = tau
         out_vrel_minus[i] = vm
-    return OK
+    return n_evals, OK
 
 
 def ivp_flight(
@@ -261,22 +272,36 @@ def one_step_errors(kp, states, tau, vrel_minus) -> dict[str, float]:
 
 def _bench_exact(kp, states, settings) -> list[dict[str, Any]]:
     n = states["phase"].size
-    tau = np.empty(n)
-    vm = np.empty(n)
-    raise_for_status(exact_one_step(states["phase"], states["vrel"], kp, tau, vm), "exact")
-    errors = one_step_errors(kp, states, tau, vm)
     # A flight takes well under a microsecond: time the start states repeated to
     # _EXACT_TILE flights so that the Python call costs nothing in comparison.
     reps = -(-_EXACT_TILE // n)
     phases, vrels = np.tile(states["phase"], reps), np.tile(states["vrel"], reps)
     tau_t, vm_t = np.empty(n * reps), np.empty(n * reps)
+    rows = []
+    for step_rel in [ROOT_STEP_REL, *settings["exact_tols"]]:
+        tau = np.empty(n)
+        vm = np.empty(n)
+        n_evals, status = exact_one_step(states["phase"], states["vrel"], kp, step_rel, tau, vm)
+        raise_for_status(status, "exact")
 
-    def run():
-        raise_for_status(exact_one_step(phases, vrels, kp, tau_t, vm_t), "exact")
+        def run(step_rel=step_rel):
+            raise_for_status(exact_one_step(phases, vrels, kp, step_rel, tau_t, vm_t)[1], "exact")
 
-    timing = measure(run, repeats=settings["repeats"], min_time=settings["min_time"])
-    row = {"method": "exact", "setting": f"default (ROOT_STEP_REL = {ROOT_STEP_REL / EPS:g} eps)"}
-    row.update(impacts_per_s=timing.per_second(n * reps), **errors, _tau=tau)
+        timing = measure(run, repeats=settings["repeats"], min_time=settings["min_time"])
+        if step_rel == ROOT_STEP_REL:
+            setting = f"default (ROOT_STEP_REL = {ROOT_STEP_REL / EPS:g} eps)"
+        else:
+            setting = f"step_rel={step_rel:g}"
+        # How early the contact is, in units of the tolerance's width step_rel tau.
+        early = (states["tau"] - tau) / (step_rel * states["tau"])
+        row = {"method": "exact", "setting": setting, "step_rel": step_rel}
+        row.update(gap_evals_per_impact=n_evals / n, max_early_per_step_rel=float(early.max()))
+        row.update(
+            impacts_per_s=timing.per_second(n * reps), **one_step_errors(kp, states, tau, vm)
+        )
+        row["_tau"] = tau
+        rows.append(row)
+    row = rows[0]
 
     periods, phase, vrel, kind = 0.0, CASE["phase0"], CASE["vrel0"], IMPACT
     n_events = settings["continuous_events"]
@@ -292,9 +317,9 @@ def _bench_exact(kp, states, settings) -> list[dict[str, Any]]:
         "impacts_per_s": timing.per_second(n_events),
         "max_time_error_s": row["max_time_error_s"],
         "max_velocity_error": row["max_velocity_error"],
-        "_tau": tau,
+        "_tau": row["_tau"],
     }
-    return [row, continuous]
+    return [row, continuous, *rows[1:]]
 
 
 def _bench_fixed(kp, states, settings) -> list[dict[str, Any]]:
@@ -416,7 +441,9 @@ class FlatBenchResult(Result):
 
     ``meta["rows"]``: one dict per method and setting (``method``, ``setting``,
     ``impacts_per_s``, ``max_time_error_s`` (s), ``max_velocity_error`` (mm/s),
-    ``cost_ratio_to_exact``, ``wrong_contacts``, ...); ``meta["long_run"]``: see
+    ``cost_ratio_to_exact``, ``wrong_contacts``, ``gap_evals_per_impact``; exact rows
+    also ``step_rel`` and ``max_early_per_step_rel``, the largest
+    ``(tau_ref - tau) / (step_rel tau_ref)``, ...); ``meta["long_run"]``: see
     ``long_run_stats``.  The arrays repeat the numeric columns in row order and
     hold, per compared flight, ``start_phase``, ``start_vrel``, ``ref_tau``, ``ref_v``
     and ``flight_time`` (rows x flights, s).
@@ -469,7 +496,7 @@ def _short(row: dict[str, Any]) -> str:
     if row["method"] == "solve_ivp":
         label = f"{row['ivp_method']} {row['frame'][0]} {row['rtol']:g}"
         return label + ("" if math.isinf(row["max_step_periods"]) else " m")
-    return ""
+    return "" if row.get("step_rel", ROOT_STEP_REL) == ROOT_STEP_REL else f"{row['step_rel']:g}"
 
 
 def compute(settings: dict[str, Any], *, log=None) -> FlatBenchResult:
@@ -487,6 +514,10 @@ def compute(settings: dict[str, Any], *, log=None) -> FlatBenchResult:
         raise ValueError(f"n_impacts must be >= 1, got {n}")
     if int(settings["long_run"]) < _N_BATCHES:
         raise ValueError(f"long_run must be >= {_N_BATCHES} impacts, got {settings['long_run']}")
+    for step_rel in settings["exact_tols"]:
+        # below ROOT_STEP_REL float steps cannot meet the stop; at 1 it is no longer relative
+        if not ROOT_STEP_REL <= step_rel < 1.0:
+            raise ValueError(f"exact_tols must be in [{ROOT_STEP_REL:g}, 1), got {step_rel}")
     log(f"bench flat: mpmath reference for {n} impacts")
     states = start_states(params, n)
     log("bench flat: exact map")
@@ -534,14 +565,14 @@ def draw(result: FlatBenchResult):
 def table(result: FlatBenchResult) -> str:
     """The rows as a plain-text table, then the long-run statistics."""
     head = f"{'method':<11} {'setting':<50} {'impacts/s':>10} {'max dt (s)':>10} "
-    head += f"{'max dv (mm/s)':>13} {'med dt (s)':>10} {'wrong':>5} {'cost/exact':>10}"
+    head += f"{'max dv (mm/s)':>13} {'med dt (s)':>10} {'wrong':>5} {'cost/exact':>10} {'evals':>6}"
     lines = [head]
     for r in result.meta["rows"]:
         lines.append(
             f"{r['method']:<11} {r['setting']:<50} {r['impacts_per_s']:>10.3g} "
             f"{r['max_time_error_s']:>10.2e} {r['max_velocity_error']:>13.2e} "
             f"{r.get('median_time_error_s', math.nan):>10.2e} {r.get('wrong_contacts', 0):>5} "
-            f"{r['cost_ratio_to_exact']:>10.3g}"
+            f"{r['cost_ratio_to_exact']:>10.3g} {r.get('gap_evals_per_impact', math.nan):>6.3g}"
         )
     lines.append("")
     lines.append(f"long run ({result.meta['case']['f']} Hz, alpha {result.meta['case']['alpha']}):")
