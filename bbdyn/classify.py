@@ -211,6 +211,7 @@ def trajectory_features(
     import numba
 
     from bbdyn.core import features as core
+    from bbdyn.core.ensemble import run_features
 
     check_params(params)
     th = Thresholds() if thresholds is None else thresholds
@@ -247,7 +248,7 @@ def trajectory_features(
         numba.set_num_threads(int(threads))
     start = time.perf_counter()
     try:
-        core.run_features(
+        run_features(
             states, params.kernel(), end, p0, L, int(blocks), th.tiny, th.k_tol, int(th.kmax),
             th.hist_width, out["blocks"], out["hist"], out["kcount"], out["glob"],
             out["mismatch"], status,

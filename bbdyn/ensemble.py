@@ -211,12 +211,11 @@ def ensemble(
     n_rec = min(int(record_particles), n) if "record" in observables else 0
     rec_cap = int(record_capacity) if n_rec else 0
     disp = np.zeros((n, s_periods.size))
-    acc = np.zeros((n, 4))
-    counts = np.zeros((n, 4), dtype=np.int64)
+    acc = np.zeros((n, 1, 4))  # one block: the energy window
+    counts = np.zeros((n, core.CNT_WIDTH), dtype=np.int64)
     jump_len = np.zeros((n, cap), dtype=np.int64)
     jump_time = np.zeros((n, cap))
     record = np.zeros((n_rec, rec_cap, core.REC_WIDTH))
-    record_n = np.zeros(n_rec, dtype=np.int64)
     final = np.zeros((n, 7))
     status = np.zeros(n, dtype=np.int64)
 
@@ -244,7 +243,6 @@ def ensemble(
             jump_len,
             jump_time,
             record,
-            record_n,
             final,
             status,
         )
@@ -266,7 +264,7 @@ def ensemble(
         "status": status,
         "sample_times": sample_times,
         "displacement": disp,
-        "stuck_fraction": acc[:, core.ACC_STUCK] / t_window,
+        "stuck_fraction": acc[:, 0, core.ACC_STUCK] / t_window,
         "collisions": counts[:, core.CNT_COLLISIONS],
         "sticks": counts[:, core.CNT_STICKS],
         "jumps": counts[:, core.CNT_JUMPS],
@@ -274,16 +272,16 @@ def ensemble(
         "final": final,
     }
     if "energy" in observables:
-        arrays["E_x"] = acc[:, core.ACC_EX] / t_window
-        arrays["E_y"] = acc[:, core.ACC_EY] / t_window
-        arrays["E_pot"] = acc[:, core.ACC_POT] / t_window
+        arrays["E_x"] = acc[:, 0, core.ACC_EX] / t_window
+        arrays["E_y"] = acc[:, 0, core.ACC_EY] / t_window
+        arrays["E_pot"] = acc[:, 0, core.ACC_POT] / t_window
         arrays["E"] = arrays["E_x"] + arrays["E_y"] + arrays["E_pot"]
     if "jumps" in observables:
         arrays["jump_len"] = jump_len
         arrays["jump_time"] = jump_time
     if n_rec:
         arrays["record"] = record
-        arrays["record_n"] = record_n
+        arrays["record_n"] = counts[:n_rec, core.CNT_RECORD]
     meta = make_meta(
         params,
         seed=seed,

@@ -1,9 +1,12 @@
 """Ensembles of independent billiard particles with on-the-fly observables.
 
 Each particle is integrated event by event with ``billiard_event`` from its own
-initial state up to ``t_end``; between events its motion (a parabola, or riding
-the floor after a STICK) is known exactly, so every observable is evaluated or
-integrated in closed form (``observables.py``) on the way.  Nothing is stored
+initial state up to ``t_end`` by one loop, ``particle_loop``, shared by the
+ensemble observables (``run_ensemble``) and the classification features
+(``run_features``, accumulators in ``features.py``); flags switch the
+accumulators on.  Between events the motion (a parabola, or riding the floor
+after a STICK) is known exactly, so every observable is evaluated or integrated
+in closed form (``observables.py``) on the way.  Nothing is stored
 per event unless a collision record is asked for: memory is proportional to the
 ensemble (and to the number of sample times and buffer sizes), not to the run.
 
@@ -23,14 +26,18 @@ Conventions (MODEL.md sections 3 and 4):
   kernel sums them in closed form only once their duration is below rounding
   of a period, so they carry no measurable weight;
 * event counts, stuck time and energy integrals cover the energy window; jumps
-  are recorded in it; the collision record covers ``record_window``.
+  are recorded in it; the collision record covers ``record_window``.  The window
+  ``[p0, p0 + nb L]`` may be cut into ``nb`` blocks of ``L`` periods (features);
+  the ensemble uses one block.
 """
 
 import math
 
+import numpy as np
 from numba import njit, prange
 
 from bbdyn.core.billiard import billiard_event
+from bbdyn.core.features import block_of, feature_collision, feature_finish
 from bbdyn.core.floor import arc_root, floor_height_rel, normal_velocity, xi_from_arc_length
 from bbdyn.core.observables import (
     displacement,
@@ -48,13 +55,16 @@ OBS_DISPLACEMENT = 1
 OBS_ENERGY = 2
 OBS_JUMPS = 4
 OBS_RECORD = 8
+#: Classification features (``features.py``); set by ``run_features`` only.
+OBS_FEATURES = 16
 
 #: Columns of the per-particle integrals ``acc``: int E_x, int E_y, int g y, stuck time
 #: (kg mm^2/s and s), all over the energy window.
 ACC_EX, ACC_EY, ACC_POT, ACC_STUCK = 0, 1, 2, 3
 #: Columns of the per-particle counts: events in the run, collisions, STICKs and
-#: jumps in the energy window.
-CNT_EVENTS, CNT_COLLISIONS, CNT_STICKS, CNT_JUMPS = 0, 1, 2, 3
+#: jumps in the energy window, collisions in the record window.
+CNT_EVENTS, CNT_COLLISIONS, CNT_STICKS, CNT_JUMPS, CNT_RECORD = 0, 1, 2, 3, 4
+CNT_WIDTH = 5
 #: Columns of the collision record: periods, phase, tile, xi, vx, vyrel, kind.
 REC_WIDTH = 7
 
@@ -123,74 +133,103 @@ def accumulate_interval(acc, i, stuck, periods, phase, tile_xi_b, vx, vyrel, lo,
 
 
 @njit(cache=True)
-def run_particle(
-    i,
-    state,
-    kp,
-    end,
-    window_periods,
-    sample_periods,
-    sample_phase,
-    record_window,
-    flags,
-    disp,
-    acc,
-    counts,
-    jump_len,
-    jump_time,
-    record,
-    record_n,
-    final,
-):
-    """Integrate particle ``i`` from ``state`` to ``end`` and write its rows of the outputs.
+def integrate_blocks(acc, stuck, periods, phase, xi, vx, vyrel, lo, hi, win, kp, energy):
+    """Integrate the motion since the event at ``(periods, phase)`` over ``[lo, hi]``, per block.
+
+    ``lo`` and ``hi`` are ``(periods, phase)`` pairs; the part inside the window
+    ``win = (p0, L, nb)`` is cut at the block boundaries ``p0 + j L`` (phase 0) and
+    added to row ``j`` of ``acc`` by ``accumulate_interval``.
+    """
+    p0, L, nb = win
+    p1 = p0 + nb * L
+    lo_p, lo_ph = lo
+    if is_before(lo_p, lo_ph, p0, 0.0):
+        lo_p, lo_ph = p0, 0.0
+    hi_p, hi_ph = hi
+    if is_before(p1, 0.0, hi_p, hi_ph):
+        hi_p, hi_ph = p1, 0.0
+    if not is_before(lo_p, lo_ph, hi_p, hi_ph):
+        return
+    b = floor_height_rel(xi, kp) if energy else 0.0
+    for j in range(block_of(lo_p, p0, L, nb), block_of(hi_p, p0, L, nb) + 1):
+        a_p, a_ph = lo_p, lo_ph
+        if is_before(a_p, a_ph, p0 + j * L, 0.0):
+            a_p, a_ph = p0 + j * L, 0.0
+        z_p, z_ph = hi_p, hi_ph
+        if is_before(p0 + (j + 1) * L, 0.0, z_p, z_ph):
+            z_p, z_ph = p0 + (j + 1) * L, 0.0
+        if is_before(a_p, a_ph, z_p, z_ph):
+            accumulate_interval(
+                acc, j, stuck, periods, phase, b, vx, vyrel, (a_p, a_ph), (z_p, z_ph), kp, energy
+            )
+
+
+@njit(cache=True)
+def particle_loop(
+    state, kp, end, win, sample_periods, sample_phase, record_window, flags, fpar,
+    acc, disp, counts, jump_len, jump_time, record, final, hist, kcount, glob, mism,
+):  # fmt: skip
+    """Integrate one particle from ``state`` to ``end``, feeding the accumulators ``flags`` select.
 
     Parameters
     ----------
-    i : int
-        Particle index (row of every output array).
     state : array, shape (7,)
         ``periods, phase, tile, xi, vx, vyrel, kind`` of the initial event.
     kp : KernelParams
     end : array, shape (2,)
         End of the run, ``(periods, phase)``.
-    window_periods : array, shape (2,)
-        Energy window in whole periods ``[p0, p1]``.
+    win : tuple
+        ``(p0, L, nb)``: the window starts at ``p0`` whole periods and is cut into ``nb``
+        blocks of ``L`` periods.
     sample_periods, sample_phase : arrays, shape (m,)
         Sample times, sorted, within ``[start, end]``.
     record_window : array, shape (4,)
         ``(periods0, phase0, periods1, phase1)`` of the collision record.
     flags : int
         OR of the ``OBS_*`` flags.
-    disp, acc, counts, jump_len, jump_time, record, record_n, final : arrays
-        Outputs (see ``run_ensemble``); rows ``i`` are written in place.
+    fpar : tuple
+        Feature thresholds ``(tiny, k_tol, kmax, hist_width)`` (see ``feature_particle``).
+    acc : array, shape (nb, >= 4)
+        Block integrals, columns ``ACC_*`` (and ``features.BF_*`` with features).
+    disp : array, shape (m,)
+        ``x - x(0)`` (mm) at the sample times.
+    counts : int64 array, shape (CNT_WIDTH,)
+        Counts, columns ``CNT_*``.
+    jump_len, jump_time : arrays, shape (cap,)
+        Trap changes in the window (units of d) and their times (s).
+    record : array, shape (cap_rec, REC_WIDTH)
+        Collision record (written with ``OBS_RECORD``).
+    final : array, shape (7,)
+        The last event before ``end``.
+    hist, kcount, glob, mism : arrays
+        Feature rows (see ``features.feature_collision``), written with ``OBS_FEATURES``.
 
     Returns
     -------
     status : int
         ``OK`` or ``STUCK_FOREVER`` (normal ends) or the kernel's failure status.
     """
-    periods, phase, tile, xi, vx, vyrel = (
-        state[0],
-        state[1],
-        state[2],
-        state[3],
-        state[4],
-        state[5],
-    )
+    periods, phase, tile, xi, vx, vyrel = state[0], state[1], state[2], state[3], state[4], state[5]
     kind = int(state[6])
     tile0, xi0 = tile, xi
     do_disp = (flags & OBS_DISPLACEMENT) != 0
     energy = (flags & OBS_ENERGY) != 0
     do_jumps = (flags & OBS_JUMPS) != 0
-    do_record = (flags & OBS_RECORD) != 0 and i < record.shape[0]
-    w0 = (window_periods[0], 0.0)
-    w1 = (window_periods[1], 0.0)
+    do_record = (flags & OBS_RECORD) != 0
+    do_feat = (flags & OBS_FEATURES) != 0
+    p0, L, nb = win
+    p1 = p0 + nb * L
     rec0 = (record_window[0], record_window[1])
     rec1 = (record_window[2], record_window[3])
     n_samples = sample_periods.shape[0]
     k = 0
     trap = trap_of(tile, xi)
-    cap = jump_len.shape[1]
+    cap = jump_len.shape[0]
+    dep_periods, dep_phase = periods, phase  # last departure (features' flight times)
+    pmax = mism.shape[0]
+    ring = np.zeros((pmax, 3))  # features: the last pmax collisions
+    n_ring = 0
+    run = 0
     status = OK
     while True:
         nxt = billiard_event(periods, phase, tile, xi, vx, vyrel, kind, kp)
@@ -201,21 +240,13 @@ def run_particle(
             break
         else:
             n_periods, n_phase = nxt[0], nxt[1]
-        counts[i, CNT_EVENTS] += 1
+        counts[CNT_EVENTS] += 1
         last = not is_before(n_periods, n_phase, end[0], end[1])
-        seg_end = (end[0], end[1]) if last else (n_periods, n_phase)
         stuck = kind == STICK
-        b = floor_height_rel(xi, kp) if energy else 0.0
-
-        # energy window part of [event, seg_end]
-        lo = (periods, phase)
-        if is_before(lo[0], lo[1], w0[0], w0[1]):
-            lo = w0
-        hi = seg_end
-        if is_before(w1[0], w1[1], hi[0], hi[1]):
-            hi = w1
-        if is_before(lo[0], lo[1], hi[0], hi[1]):
-            accumulate_interval(acc, i, stuck, periods, phase, b, vx, vyrel, lo, hi, kp, energy)
+        seg_end = (end[0], end[1]) if last else (n_periods, n_phase)
+        integrate_blocks(
+            acc, stuck, periods, phase, xi, vx, vyrel, (periods, phase), seg_end, win, kp, energy
+        )
 
         # positions at the sample times inside this interval (all remaining ones if last)
         if do_disp:
@@ -227,64 +258,67 @@ def run_particle(
                     x += vx * time_between(
                         sample_periods[k], sample_phase[k], periods, phase, kp.w, kp.period
                     )
-                disp[i, k] = displacement(tile, x, tile0, xi0, kp.d)
+                disp[k] = displacement(tile, x, tile0, xi0, kp.d)
                 k += 1
         if last:
             break
 
-        periods, phase, tile, xi, vx, vyrel, kind = (
-            nxt[0],
-            nxt[1],
-            nxt[2],
-            nxt[3],
-            nxt[4],
-            nxt[5],
-            nxt[6],
-        )
+        periods, phase, tile, xi, vx, vyrel = nxt[0], nxt[1], nxt[2], nxt[3], nxt[4], nxt[5]
+        kind = nxt[6]
         if kind == RELEASE:
+            dep_periods, dep_phase = periods, phase
             continue
-        in_window = not is_before(periods, phase, w0[0], w0[1]) and is_before(
-            periods, phase, w1[0], w1[1]
-        )
-        if in_window:
-            counts[i, CNT_COLLISIONS] += 1
-            if kind == STICK:
-                counts[i, CNT_STICKS] += 1
+        # a collision (IMPACT or STICK); an IMPACT departs at once, a STICK releases later
+        flight = time_between(periods, phase, dep_periods, dep_phase, kp.w, kp.period) / kp.period
+        dep_periods, dep_phase = periods, phase
         new_trap = trap_of(tile, xi)
-        if new_trap != trap:
-            if in_window:
-                j = counts[i, CNT_JUMPS]
+        jumped = new_trap != trap
+        in_window = not is_before(periods, phase, p0, 0.0) and is_before(periods, phase, p1, 0.0)
+        if in_window:
+            counts[CNT_COLLISIONS] += 1
+            if kind == STICK:
+                counts[CNT_STICKS] += 1
+            if jumped:
+                j = counts[CNT_JUMPS]
                 if do_jumps and j < cap:
-                    jump_len[i, j] = int(new_trap - trap)
-                    jump_time[i, j] = periods * kp.period + phase / kp.w
-                counts[i, CNT_JUMPS] = j + 1
-            trap = new_trap
+                    jump_len[j] = int(new_trap - trap)
+                    jump_time[j] = periods * kp.period + phase / kp.w
+                counts[CNT_JUMPS] = j + 1
+            if do_feat:
+                n_ring, run = feature_collision(
+                    acc, block_of(periods, p0, L, nb), hist, kcount, glob, mism, ring, n_ring,
+                    run, phase, vyrel, kind, flight, jumped, fpar, kp,
+                )  # fmt: skip
+        trap = new_trap
         if (
             do_record
             and not is_before(periods, phase, rec0[0], rec0[1])
             and not is_before(rec1[0], rec1[1], periods, phase)
         ):
-            r = record_n[i]
-            if r < record.shape[1]:
-                record[i, r, 0] = periods
-                record[i, r, 1] = phase
-                record[i, r, 2] = tile
-                record[i, r, 3] = xi
-                record[i, r, 4] = vx
-                record[i, r, 5] = vyrel
-                record[i, r, 6] = kind
-            record_n[i] = r + 1
-    final[i, 0] = periods
-    final[i, 1] = phase
-    final[i, 2] = tile
-    final[i, 3] = xi
-    final[i, 4] = vx
-    final[i, 5] = vyrel
-    final[i, 6] = kind
-    # a failed particle leaves NaN where it could not say where it was
+            r = counts[CNT_RECORD]
+            if r < record.shape[0]:
+                record[r, 0] = periods
+                record[r, 1] = phase
+                record[r, 2] = tile
+                record[r, 3] = xi
+                record[r, 4] = vx
+                record[r, 5] = vyrel
+                record[r, 6] = kind
+            counts[CNT_RECORD] = r + 1
+    final[0] = periods
+    final[1] = phase
+    final[2] = tile
+    final[3] = xi
+    final[4] = vx
+    final[5] = vyrel
+    final[6] = kind
     if status != OK and status != STUCK_FOREVER:
+        # a failed particle leaves NaN where it could not say where it was
         for kk in range(k, n_samples):
-            disp[i, kk] = math.nan
+            disp[kk] = math.nan
+        return status
+    if do_feat:
+        feature_finish(acc, glob, mism, n_ring, run, disp)
     return status
 
 
@@ -304,7 +338,6 @@ def run_ensemble(
     jump_len,
     jump_time,
     record,
-    record_n,
     final,
     status,
 ):
@@ -313,42 +346,101 @@ def run_ensemble(
     Parameters
     ----------
     states : array, shape (n, 7)
-        Initial events ``periods, phase, tile, xi, vx, vyrel, kind`` (see ``run_particle``).
-    kp, end, window_periods, sample_periods, sample_phase, record_window, flags
-        As in ``run_particle``.
+        Initial events ``periods, phase, tile, xi, vx, vyrel, kind``.
+    kp, end, sample_periods, sample_phase, record_window, flags
+        As in ``particle_loop``.
+    window_periods : array, shape (2,)
+        Energy window in whole periods ``[p0, p1]`` (one block).
     disp : array, shape (n, m) or (n, 0)
         ``x(t_k) - x(0)`` (mm) at the sample times.
-    acc : array, shape (n, 4)
+    acc : array, shape (n, 1, 4)
         Integrals over the energy window, columns ``ACC_*``; must start at zero.
-    counts : int64 array, shape (n, 4)
-        Event counts, columns ``CNT_*``; must start at zero.
+    counts : int64 array, shape (n, CNT_WIDTH)
+        Counts, columns ``CNT_*``; must start at zero.  ``CNT_JUMPS`` may exceed the
+        jump capacity and ``CNT_RECORD`` the record capacity (counted, not stored).
     jump_len : int64 array, shape (n, cap); jump_time : array, shape (n, cap)
-        Trap changes (units of d) and their times (s); ``counts[:, CNT_JUMPS]`` may
-        exceed ``cap`` (overflow: the extra jumps are counted, not stored).
-    record : array, shape (n_rec, cap_rec, 7); record_n : int64 array, shape (n_rec,)
+        Trap changes (units of d) and their times (s).
+    record : array, shape (n_rec, cap_rec, 7)
         Collision record of the first ``n_rec`` particles inside ``record_window``.
     final : array, shape (n, 7)
         The last event before ``end`` (the state the run would continue from).
     status : int64 array, shape (n,)
         Per-particle status (``OK``, ``STUCK_FOREVER`` or a failure).
     """
+    win = (window_periods[0], window_periods[1] - window_periods[0], 1)
+    fpar = (0.0, 0.0, 0, 1.0)
+    no_record = np.zeros((0, REC_WIDTH))
+    none = np.zeros(0)
     for i in prange(states.shape[0]):
-        status[i] = run_particle(
-            i,
-            states[i],
-            kp,
-            end,
-            window_periods,
-            sample_periods,
-            sample_phase,
-            record_window,
-            flags,
-            disp,
-            acc,
-            counts,
-            jump_len,
-            jump_time,
-            record,
-            record_n,
-            final,
-        )
+        in_record = i < record.shape[0]
+        status[i] = particle_loop(
+            states[i], kp, end, win, sample_periods, sample_phase, record_window,
+            flags if in_record else flags & ~OBS_RECORD, fpar, acc[i], disp[i], counts[i],
+            jump_len[i], jump_time[i], record[i] if in_record else no_record, final[i],
+            none, none, none, none,
+        )  # fmt: skip
+
+
+@njit(cache=True)
+def feature_particle(
+    i, state, kp, end, p0, L, nb, tiny, k_tol, kmax, hist_width, blocks, hist, kcount, glob, mism
+):
+    """Run particle ``i`` from ``state`` to ``end``; write its rows of the feature arrays.
+
+    Parameters
+    ----------
+    i : int
+        Particle index.
+    state : array, shape (7,)
+        ``periods, phase, tile, xi, vx, vyrel, kind`` of the initial event.
+    kp : KernelParams
+    end : array, shape (2,)
+        End of the run ``(periods, phase)``; at or after ``p0 + nb L`` periods.
+    p0, L : float
+        Window start and block length (whole periods).
+    nb : int
+        Number of blocks.
+    tiny, k_tol : float
+        Tiny-hop bound and locking tolerance (in periods).
+    kmax : int
+        Largest locking number counted.
+    hist_width : float
+        Width (periods) of the flight-time histogram bins.
+    blocks, hist, kcount, glob, mism : arrays
+        Outputs (``features.py``), shapes (n, nb, BF_WIDTH), (n, nbins), (n, kmax + 1),
+        (n, G_WIDTH), (n, pmax); zero on entry except ``mism`` (any value).
+
+    Returns
+    -------
+    status : int
+        ``OK``, ``STUCK_FOREVER`` or the kernel's failure status.
+    """
+    for p in range(mism.shape[1]):
+        mism[i, p] = 0.0
+    # the positions at the block boundaries are the loop's samples
+    bounds = p0 + np.arange(nb + 1) * L
+    return particle_loop(
+        state, kp, end, (p0, L, nb), bounds, np.zeros(nb + 1), np.zeros(4),
+        OBS_DISPLACEMENT | OBS_ENERGY | OBS_FEATURES, (tiny, k_tol, kmax, hist_width),
+        blocks[i], np.zeros(nb + 1), np.zeros(CNT_WIDTH, dtype=np.int64),
+        np.zeros(0, dtype=np.int64), np.zeros(0), np.zeros((0, REC_WIDTH)), np.zeros(7),
+        hist[i], kcount[i], glob[i], mism[i],
+    )  # fmt: skip
+
+
+@njit(cache=True, parallel=True)
+def run_features(
+    states, kp, end, p0, L, nb, tiny, k_tol, kmax, hist_width, blocks, hist, kcount, glob, mism,
+    status,
+):  # fmt: skip
+    """Run every particle (prange over particles) and fill the feature arrays in place.
+
+    Arguments as in ``feature_particle``; ``status`` (int64, shape (n,)) receives each
+    particle's status.  Each particle writes only its own rows: the numbers do not
+    depend on the number of threads.
+    """
+    for i in prange(states.shape[0]):
+        status[i] = feature_particle(
+            i, states[i], kp, end, p0, L, nb, tiny, k_tol, kmax, hist_width,
+            blocks, hist, kcount, glob, mism,
+        )  # fmt: skip
