@@ -107,6 +107,7 @@ def ensemble(
     record_window: tuple[float, float] | None = None,
     record_capacity: int = 4096,
     threads: int | None = None,
+    fast_forward: bool = True,
 ) -> EnsembleResult:
     """Run an ensemble of independent particles for ``t`` seconds.
 
@@ -140,6 +141,10 @@ def ensemble(
     threads : int, optional
         Number of numba threads (default: numba's current setting).  Results do
         not depend on it.
+    fast_forward : bool
+        Skip whole stick-release cycles once a release repeats bit for bit
+        (``core.ensemble.fast_forward``): the same events; counts, jumps,
+        displacements exact, integrals to rounding.  Not for recorded particles.
 
     Returns
     -------
@@ -207,6 +212,8 @@ def ensemble(
     ):
         if name in observables:
             flags |= flag
+    if fast_forward:
+        flags |= core.OBS_FAST_FORWARD
     cap = int(jump_capacity) if "jumps" in observables else 0
     n_rec = min(int(record_particles), n) if "record" in observables else 0
     rec_cap = int(record_capacity) if n_rec else 0
@@ -269,6 +276,7 @@ def ensemble(
         "sticks": counts[:, core.CNT_STICKS],
         "jumps": counts[:, core.CNT_JUMPS],
         "events": counts[:, core.CNT_EVENTS],
+        "skipped_events": counts[:, core.CNT_SKIPPED],
         "final": final,
     }
     if "energy" in observables:
@@ -293,6 +301,7 @@ def ensemble(
         window_s=t_window,
         observables=list(observables),
         threads=used_threads,
+        fast_forward=bool(fast_forward),
         box=None if initial is not None else vars(box or reference_box(params)),
     )
     return EnsembleResult(arrays, meta)
@@ -304,7 +313,8 @@ class EnsembleResult(Result):
     Arrays: ``initial`` (n, 3) ``(s, vx+, vy+)``; ``status`` (n,); ``sample_times`` (m,) s;
     ``displacement`` (n, m) mm; ``E, E_x, E_y, E_pot`` (n,) period-averaged energies
     (kg mm^2/s^2) over the window; ``stuck_fraction`` (n,); ``collisions``, ``sticks``,
-    ``jumps`` (n,) counts in the window; ``events`` (n,) in the whole run; ``final`` (n, 7)
+    ``jumps`` (n,) counts in the window; ``events`` (n,) in the whole run, of which
+    ``skipped_events`` (n,) were fast-forwarded; ``final`` (n, 7)
     the last event before t (periods, phase, tile, xi, vx, vyrel, kind); with jumps
     ``jump_len``, ``jump_time`` (n, cap); with a record ``record`` (n_rec, cap, 7)
     (periods, phase, tile, xi, vx, vyrel, kind) and ``record_n``.

@@ -1,8 +1,8 @@
 """On-the-fly trajectory features (core/features.py) against a stored collision record.
 
-The ensemble driver (core/ensemble.py) is an independent event loop: its collision
-record, energy integrals and counts are recomputed here into the features, by a
-plain-Python reading of the record, and must agree.
+Ensemble and features share one event loop (core.ensemble.particle_loop) but not their
+accumulators: the ensemble's collision record, energy integrals and counts are recomputed
+here into the features, by a plain-Python reading of the record, and must agree.
 """
 
 import math

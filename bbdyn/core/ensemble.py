@@ -57,14 +57,20 @@ OBS_JUMPS = 4
 OBS_RECORD = 8
 #: Classification features (``features.py``); set by ``run_features`` only.
 OBS_FEATURES = 16
+#: Fast-forward of exactly periodic stick-release cycles (``fast_forward``); ignored
+#: with features and for recorded particles.
+OBS_FAST_FORWARD = 32
+#: Releases remembered to detect a cycle: lags 1 .. FF_LAGS.
+FF_LAGS = 8
 
 #: Columns of the per-particle integrals ``acc``: int E_x, int E_y, int g y, stuck time
 #: (kg mm^2/s and s), all over the energy window.
 ACC_EX, ACC_EY, ACC_POT, ACC_STUCK = 0, 1, 2, 3
 #: Columns of the per-particle counts: events in the run, collisions, STICKs and
-#: jumps in the energy window, collisions in the record window.
-CNT_EVENTS, CNT_COLLISIONS, CNT_STICKS, CNT_JUMPS, CNT_RECORD = 0, 1, 2, 3, 4
-CNT_WIDTH = 5
+#: jumps in the energy window, collisions in the record window, events skipped by
+#: ``fast_forward`` (included in CNT_EVENTS).
+CNT_EVENTS, CNT_COLLISIONS, CNT_STICKS, CNT_JUMPS, CNT_RECORD, CNT_SKIPPED = 0, 1, 2, 3, 4, 5
+CNT_WIDTH = 6
 #: Columns of the collision record: periods, phase, tile, xi, vx, vyrel, kind.
 REC_WIDTH = 7
 
@@ -165,6 +171,90 @@ def integrate_blocks(acc, stuck, periods, phase, xi, vx, vyrel, lo, hi, win, kp,
 
 
 @njit(cache=True)
+def fast_forward(
+    rel, rel_acc, rel_cnt, n_rel, periods, phase, tile, xi, k, bound, win, acc, counts
+):
+    """Skip whole stick-release cycles once a release state repeats bitwise.
+
+    Exactness: a RELEASE leaves at ``phase = theta_r`` with ``vx = vyrel = 0`` relative to
+    the floor, and ``billiard_event`` uses ``periods`` and ``tile`` only by adding whole
+    numbers to them (exact below 2^53), so the events after a release are functions of
+    ``(phase, xi, vx, vyrel)``, translated in periods and tiles.  If this release equals,
+    bit for bit, the one ``p`` releases back (``dP`` periods and ``dl`` tiles earlier),
+    every later cycle repeats the last one exactly, shifted by ``(dP, dl)`` (the release
+    velocities are always 0, so ``(phase, xi)`` is compared).  Its
+    contributions are the changes of the accumulators over the last cycle, added ``K``
+    times: counts exactly; integrals to rounding (a product instead of a running sum, see
+    ``tolerances.SUM_ROUND_PER_TERM``).  Only cycles inside one zone are skipped: the last
+    cycle and the ``K`` skipped ones contain no window boundary, no sample time (``k``
+    unchanged, ``bound`` the next one) and no recorded jump (none was seen in a stick-release
+    cycle; a drifting cycle is simulated) and end before ``end``; around those the loop runs
+    normally.
+
+    Parameters
+    ----------
+    rel : array, shape (FF_LAGS, 6)
+        Ring of releases ``phase, xi, periods, tile, zone, k`` (zone 0, 1, 2: before, in,
+        after the window; ``k`` the next sample index then).
+    rel_acc, rel_cnt : arrays, shapes (FF_LAGS, 4), (FF_LAGS, CNT_WIDTH)
+        Accumulators ``acc[0, :4]`` and ``counts`` at those releases.
+    n_rel : int
+        Releases pushed so far.
+    periods, phase, tile, xi : float
+        This release.
+    k : int
+        Next sample index; ``bound`` its time ``(periods, phase)`` or the end.
+    win, acc, counts
+        As in ``particle_loop`` (``acc`` with one block).
+
+    Returns
+    -------
+    (K, dP, dl, n_rel) : whole cycles skipped (0: none), cycle length (periods), tile shift,
+    and the new ring count (reset to 0 after a skip).
+    """
+    p0, L, nb = win
+    p1 = p0 + nb * L
+    zone = (
+        0.0
+        if is_before(periods, phase, p0, 0.0)
+        else (1.0 if is_before(periods, phase, p1, 0.0) else 2.0)
+    )
+    for lag in range(1, min(n_rel, FF_LAGS) + 1):
+        r = rel[(n_rel - lag) % FF_LAGS]
+        if r[0] != phase or r[1] != xi:
+            continue
+        s = (n_rel - lag) % FF_LAGS
+        if r[4] != zone or r[5] != k or rel_cnt[s, CNT_JUMPS] != counts[CNT_JUMPS]:
+            break
+        dP = periods - r[2]
+        dl = tile - r[3]
+        nxt_zone = p0 if zone == 0.0 else (p1 if zone == 1.0 else math.inf)
+        b_p, b_ph = bound
+        if is_before(nxt_zone, 0.0, b_p, b_ph):
+            b_p, b_ph = nxt_zone, 0.0
+        K = int(min((b_p - periods) // dP, 2.0**52 / dP))
+        while K > 0 and not is_before(periods + K * dP, phase, b_p, b_ph):
+            K -= 1
+        if K < 1:
+            break
+        for c in range(4):
+            acc[0, c] += K * (acc[0, c] - rel_acc[s, c])
+        n_cycle = counts[CNT_EVENTS] - rel_cnt[s, CNT_EVENTS]
+        for c in range(CNT_WIDTH):
+            counts[c] += K * (counts[c] - rel_cnt[s, c])  # CNT_SKIPPED: no skip in the cycle
+        counts[CNT_SKIPPED] += K * n_cycle
+        return K, dP, dl, 0
+    s = n_rel % FF_LAGS
+    rel[s, 0], rel[s, 1], rel[s, 2], rel[s, 3] = phase, xi, periods, tile
+    rel[s, 4], rel[s, 5] = zone, k
+    for c in range(4):
+        rel_acc[s, c] = acc[0, c]
+    for c in range(CNT_WIDTH):
+        rel_cnt[s, c] = counts[c]
+    return 0, 0.0, 0.0, n_rel + 1
+
+
+@njit(cache=True)
 def particle_loop(
     state, kp, end, win, sample_periods, sample_phase, record_window, flags, fpar,
     acc, disp, counts, jump_len, jump_time, record, final, hist, kcount, glob, mism,
@@ -217,6 +307,11 @@ def particle_loop(
     do_jumps = (flags & OBS_JUMPS) != 0
     do_record = (flags & OBS_RECORD) != 0
     do_feat = (flags & OBS_FEATURES) != 0
+    do_ff = (flags & OBS_FAST_FORWARD) != 0 and not do_feat and not do_record
+    rel = np.zeros((FF_LAGS, 6))
+    rel_acc = np.zeros((FF_LAGS, 4))
+    rel_cnt = np.zeros((FF_LAGS, CNT_WIDTH), dtype=np.int64)
+    n_rel = 0
     p0, L, nb = win
     p1 = p0 + nb * L
     rec0 = (record_window[0], record_window[1])
@@ -266,6 +361,17 @@ def particle_loop(
         periods, phase, tile, xi, vx, vyrel = nxt[0], nxt[1], nxt[2], nxt[3], nxt[4], nxt[5]
         kind = nxt[6]
         if kind == RELEASE:
+            if do_ff:
+                bound = (end[0], end[1])
+                if k < n_samples and is_before(sample_periods[k], sample_phase[k], end[0], end[1]):
+                    bound = (sample_periods[k], sample_phase[k])
+                K, dP, dl, n_rel = fast_forward(
+                    rel, rel_acc, rel_cnt, n_rel, periods, phase, tile, xi, k, bound, win, acc,
+                    counts,
+                )  # fmt: skip
+                periods += K * dP
+                tile += K * dl
+                trap += K * dl
             dep_periods, dep_phase = periods, phase
             continue
         # a collision (IMPACT or STICK); an IMPACT departs at once, a STICK releases later

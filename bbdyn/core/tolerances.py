@@ -97,3 +97,11 @@ DEPARTURE_REL_TOL = 8.0 * EPS
 #: the rounding of the weights, taken relative to |t| + |tbar|, the size of the numbers
 #: rounded in t - tbar).  Differences of MSD slopes below this are rounding.
 DOT_ROUND_PER_TERM = EPS
+
+# ---- fast-forward of periodic cycles (bbdyn.core.ensemble.fast_forward) ---------------------
+
+#: A running sum of n terms is exact to n * SUM_ROUND_PER_TERM times the sum of the
+#: absolute values of the terms (gamma_n with u = EPS / 2, doubled for margin).  The same
+#: bound holds for K times the change of a running sum over one cycle (the change carries the
+#: roundings of that cycle's additions), so the two ways differ by at most twice this.
+SUM_ROUND_PER_TERM = EPS
