@@ -81,11 +81,18 @@ def state_from_section(
     kp = params.kernel()
     xi = xi_from_arc_length(s, kp)
     vyrel = vy + kp.A * kp.w * math.cos(phase)  # vy - u, u = -A w cos(phase)
-    vn = vx * xi + vyrel * math.sqrt(kp.R**2 - xi**2)
+    S = math.sqrt(kp.R**2 - xi**2)
+    vn = vx * xi + vyrel * S
     if not vn > 0.0:
         raise ValueError(
             f"the velocity must leave the floor (normal component relative to the floor > 0), "
             f"got vx={vx}, vy={vy} at s={s}"
+        )
+    if abs(xi) >= 0.5 * kp.d and not vyrel * S > abs(vx * xi):
+        # on a wedge the particle touches both arcs; the kernel continues it on the arc it
+        # moves over, so the velocity must leave the neighbouring arc too
+        raise ValueError(
+            f"at a wedge (s = {s}) the velocity must leave both arcs, got vx={vx}, vy={vy}"
         )
     return 0.0, float(phase), float(tile), xi, float(vx), vyrel, IMPACT
 

@@ -6,7 +6,7 @@ import pytest
 from scipy.optimize import brentq
 
 from bbdyn import Params
-from bbdyn.billiard import simulate
+from bbdyn.billiard import simulate, state_from_section
 from bbdyn.core.billiard import billiard_event, billiard_flight, collide, flight_gap
 from bbdyn.core.floor import bounce, floor_height_rel
 from bbdyn.core.status import IMPACT, OK, RELEASE, STICK, STUCK_FOREVER
@@ -168,3 +168,17 @@ def test_beta_one_refused():
         simulate(Params(f=85.2, beta=1.0), n_events=10, s0=1.0, vx0=3.0, vy0=10.0)
     # elastic (alpha = beta = 1) has no chattering and is allowed
     simulate(Params(f=85.2, alpha=1.0, beta=1.0), n_events=10, s0=1.0, vx0=3.0, vy0=10.0)
+
+
+@pytest.mark.parametrize("s_at", ["left_wedge", "right_wedge"])
+def test_start_on_a_wedge_must_leave_both_arcs(s_at):
+    """Found by the property test: s = 0 with (vx, vy) = (-2, 1) leaves tile 0's arc but
+    enters its neighbour's (slope 30 degrees at R = d = 1); such a start is refused."""
+    params = Params(f=30.0, A=0.0, alpha=0.0, beta=0.0, R=1.0, d=1.0)
+    s, vx = (0.0, -2.0) if s_at == "left_wedge" else (params.s_max, 2.0)
+    with pytest.raises(ValueError, match="must leave both arcs"):
+        state_from_section(params, s, vx, 1.0)
+    # steeper than the neighbour's slope: accepted, and the run is valid
+    state = state_from_section(params, s, vx, 4.0)
+    nxt = billiard_event(*state, params.kernel())
+    assert nxt[7] in (OK, STUCK_FOREVER)
