@@ -300,28 +300,14 @@ SCENE_KEYS = (
 
 
 def scan_folder(settings: dict, seed: int, out_dir=None) -> Path:
-    """Folder of the scan a scene setting needs: ``<out_dir>/scans/diffusion_<digest>``.
+    """Folder of the scan of an S3-S5 setting: ``<out_dir>/scans/diffusion_<digest>``
+    (``bbdyn.scan.settings_folder`` over the grid, n, t and transient); S3, S4 and S5
+    with the same setting share it.  With ``settings["partial"]`` true, the finished
+    points of an explicit ``settings["scan_dir"]`` are enough."""
+    from bbdyn.scan import settings_folder
 
-    The digest covers the grid, n, t, transient, seed and package version, so scenes
-    with the same setting share one scan (S3, S4 and S5 compute it once) and a new
-    version never reuses old numbers.  ``out_dir`` defaults to ``$BBDYN_CACHE`` or
-    ``~/.cache/bbdyn``; ``settings["scan_dir"]`` names a scan folder explicitly (with
-    ``settings["partial"]`` true, its finished points are enough).
-    """
-    import hashlib
-    import json
-    import os
-
-    from bbdyn import __version__
-
-    if settings.get("scan_dir"):
-        return Path(settings["scan_dir"])
-    if out_dir is None:
-        out_dir = os.environ.get("BBDYN_CACHE", Path.home() / ".cache" / "bbdyn")
     keys = ("f_start", "f_stop", "f_step", "n", "t", "transient")
-    defining = {k: settings.get(k) for k in keys} | {"seed": seed, "version": __version__}
-    digest = hashlib.sha256(json.dumps(defining, sort_keys=True).encode()).hexdigest()[:12]
-    return Path(out_dir) / "scans" / f"diffusion_{digest}"
+    return settings_folder("diffusion", settings, keys, seed, out_dir)
 
 
 def scene_scan(settings: dict, seed: int, out_dir=None):

@@ -137,8 +137,8 @@ def gk_run(
         nmax,
         n_boot=n_boot,
         seed=boot_seed,
-        D_einstein=D if D >= 0 else None,
-        D_einstein_err=D_err if D >= 0 else None,
+        D_einstein=D,
+        D_einstein_err=D_err,
         meta=meta,
     )
 
@@ -229,27 +229,12 @@ def gk_scan(
 
 
 def gk_scan_folder(settings: dict, seed: int, out_dir=None) -> Path:
-    """Folder of the scan of a scene setting: ``<out_dir>/scans/gk_<digest>``.
+    """Folder of the scan of an S9/S10 setting: ``<out_dir>/scans/gk_<digest>``
+    (``bbdyn.scan.settings_folder`` over the grid, n, t and nmax)."""
+    from bbdyn.scan import settings_folder
 
-    As ``bbdyn.frequency_scan.scan_folder``: the digest covers the grid, n, t, nmax,
-    the seed and the package version (S9 and S10 settings never share a folder with
-    each other or with S3-S5); ``out_dir`` defaults to ``$BBDYN_CACHE`` or
-    ``~/.cache/bbdyn``; ``settings["scan_dir"]`` names a folder explicitly.
-    """
-    import hashlib
-    import json
-    import os
-
-    from bbdyn import __version__
-
-    if settings.get("scan_dir"):
-        return Path(settings["scan_dir"])
-    if out_dir is None:
-        out_dir = os.environ.get("BBDYN_CACHE", Path.home() / ".cache" / "bbdyn")
-    keys = ("f_start", "f_stop", "f_step", "n", "t", "nmax")
-    defining = {k: settings.get(k) for k in keys} | {"seed": seed, "version": __version__}
-    digest = hashlib.sha256(json.dumps(defining, sort_keys=True).encode()).hexdigest()[:12]
-    return Path(out_dir) / "scans" / f"gk_{digest}"
+    return settings_folder("gk", settings, ("f_start", "f_stop", "f_step", "n", "t", "nmax"),
+                           seed, out_dir)  # fmt: skip
 
 
 def gk_scene_scan(settings: dict, seed: int, out_dir=None):

@@ -45,6 +45,7 @@ __all__ = [
     "point_key",
     "point_seed",
     "run_scan",
+    "settings_folder",
 ]
 
 #: Seed keys are the values rounded to 1 / KEY_SCALE (1e-9 Hz for frequencies).
@@ -517,3 +518,25 @@ def load_scan(out_dir: str | os.PathLike, *, partial: bool = False) -> ScanResul
     meta = {k: v for k, v in manifest.items() if k != "kind"}
     meta.update(n_missing=missing, points=[p.meta for p in points])
     return ScanResult(arrays, meta)
+
+
+def settings_folder(prefix: str, settings: dict, keys, seed: int, out_dir=None) -> Path:
+    """Folder of the scan behind a scene setting: ``<out_dir>/scans/<prefix>_<digest>``.
+
+    The digest covers ``settings[k]`` for ``k in keys``, the seed and the package
+    version, so scenes with the same setting share one scan and a new version never
+    reuses old numbers.  ``out_dir`` defaults to ``$BBDYN_CACHE`` or ``~/.cache/bbdyn``;
+    ``settings["scan_dir"]`` names a folder explicitly.
+    """
+    import hashlib
+    import os
+
+    from bbdyn import __version__
+
+    if settings.get("scan_dir"):
+        return Path(settings["scan_dir"])
+    if out_dir is None:
+        out_dir = os.environ.get("BBDYN_CACHE", Path.home() / ".cache" / "bbdyn")
+    defining = {k: settings.get(k) for k in keys} | {"seed": seed, "version": __version__}
+    digest = hashlib.sha256(json.dumps(defining, sort_keys=True).encode()).hexdigest()[:12]
+    return Path(out_dir) / "scans" / f"{prefix}_{digest}"

@@ -203,9 +203,9 @@ def test_result_round_trip_and_plot(tmp_path):
         ({"nmax": 2.5}, "nmax must be an integer"),
         ({"n_boot": 1}, "n_boot must be in"),
         ({"nmax": 3, "table_len": 4}, "table_len must be in"),
-        ({"D_einstein": -1.0}, "D_einstein must be finite"),
+        ({"D_einstein": float("nan")}, "D_einstein must be finite"),
     ],
-    ids=["nmax-zero", "nmax-float", "one-resample", "table-longer-than-nmax", "negative-D"],
+    ids=["nmax-zero", "nmax-float", "one-resample", "table-longer-than-nmax", "nan-D"],
 )
 def test_bad_arguments_are_refused(kwargs, message):
     data = persistent_walk(0.5, 5, 2.0, np.random.default_rng(0))

@@ -7,7 +7,6 @@ Each frequency is one point of a resumable, parallel ``bbdyn.scan.run_scan``;
 from __future__ import annotations
 
 import functools
-import tempfile
 import time
 
 import numpy as np
@@ -29,7 +28,7 @@ QUICK = {
     "scan_dir": None,
 }
 FULL = {"f_min": 49.8, "f_max": 95.0, "n_f": 227, "n": 1000, "t": 50.0, "workers": None,
-        "scan_dir": "scan_B1"}  # fmt: skip
+        "scan_dir": None}  # fmt: skip
 
 
 def regime_point(f: float, seed_sequence, *, n: int, t: float) -> dict:
@@ -65,17 +64,21 @@ class SceneB1Result(Result):
         return ax if ax is not None else fig.axes[0]
 
 
-def compute(settings: dict, seed: int = 0) -> SceneB1Result:
-    """Classify the reference box at ``n_f`` frequencies in ``[f_min, f_max]`` (one scan)."""
-    from bbdyn.scan import run_scan
+def compute(settings: dict, seed: int = 0, out_dir=None) -> SceneB1Result:
+    """Classify the reference box at ``n_f`` frequencies in ``[f_min, f_max]`` (one scan).
+
+    The scan is kept (resumable) in ``bbdyn.scan.settings_folder("regime", ...)`` under
+    ``out_dir``, or in ``settings["scan_dir"]``.
+    """
+    from bbdyn.scan import run_scan, settings_folder
 
     start = time.perf_counter()
     freqs = np.round(np.linspace(settings["f_min"], settings["f_max"], settings["n_f"]), 6)
     point = functools.partial(regime_point, n=int(settings["n"]), t=float(settings["t"]))
-    with tempfile.TemporaryDirectory() as tmp:
-        out_dir = settings["scan_dir"] or tmp
-        scan = run_scan(freqs.tolist(), point, out_dir=out_dir, seed=seed,
-                        workers=settings["workers"], progress=False)  # fmt: skip
+    folder = settings_folder("regime", settings, ("f_min", "f_max", "n_f", "n", "t"), seed, out_dir)
+    progress = settings.get("progress", False)
+    scan = run_scan(freqs.tolist(), point, out_dir=folder, seed=seed,
+                    workers=settings["workers"], progress=progress)  # fmt: skip
     arrays = {k: np.asarray(v) for k, v in scan.arrays.items()}
     counts = {lab: int(np.sum(arrays["regime"] == i)) for i, lab in enumerate(LABELS)}
     meta = make_meta(seed=seed, wall_s=time.perf_counter() - start,
