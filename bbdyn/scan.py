@@ -21,12 +21,15 @@ a scan in another order and a scan on a cluster give identical numbers.
 from __future__ import annotations
 
 import concurrent.futures as cf
+import contextlib
 import functools
 import json
 import multiprocessing
 import os
+import signal
 import socket
 import sys
+import threading
 import time
 from collections.abc import Callable, Sequence
 from pathlib import Path
@@ -374,10 +377,29 @@ def run_scan(
                 backend = _DaskBackend(scheduler)
             else:
                 backend = _LocalBackend(min(workers or _available_cores(), len(todo)))
-            _drive(backend, todo, compute, seed, name, stems, manifest, bar, out_dir)
+            with _sigterm_as_interrupt():
+                _drive(backend, todo, compute, seed, name, stems, manifest, bar, out_dir)
     finally:
         bar.close()
     return load_scan(out_dir)
+
+
+@contextlib.contextmanager
+def _sigterm_as_interrupt():
+    """Treat SIGTERM (``kill``, a batch system's stop) like Ctrl-C: finished points are
+    kept and the workers are terminated, instead of being left to run orphaned."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+
+    def interrupt(signum, frame):
+        raise KeyboardInterrupt(f"signal {signum}")
+
+    previous = signal.signal(signal.SIGTERM, interrupt)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGTERM, previous)
 
 
 def _drive(backend, todo, compute, seed, name, stems, manifest, bar, out_dir) -> None:

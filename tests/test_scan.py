@@ -203,6 +203,7 @@ def _group_alive(pgid: int) -> bool:
         pytest.param(signal.SIGKILL, True, id="killed"),
         pytest.param(signal.SIGINT, True, id="ctrl_c"),
         pytest.param(signal.SIGINT, False, id="sigint_to_main_process_only"),
+        pytest.param(signal.SIGTERM, False, id="sigterm_to_main_process_only"),
     ],
 )
 def test_interrupted_process_keeps_points_and_resume_matches(
