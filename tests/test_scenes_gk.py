@@ -1,12 +1,10 @@
 """Scenes S9 (random walk) and S10 (Green-Kubo): compute, save, redraw from the data."""
 
-import time
-
 import numpy as np
 import pytest
 
 from bbdyn.results import load_result
-from bbdyn.scenes import SCENES, redraw_scene, run_scene, scene_module
+from bbdyn.scenes import SCENES, redraw_scene, scene_module
 from bbdyn.scenes import s9_random_walk as s9
 from bbdyn.scenes import s10_green_kubo as s10
 
@@ -69,12 +67,3 @@ def test_s10_refuses_orders_above_nmax(tmp_path):
     settings = {"f_start": 85.0, "f_stop": 85.0, "f_step": 0.1, "nmax": 3, "orders": [0, 7], **TINY}
     with pytest.raises(ValueError, match="orders must lie in"):
         s10.compute(settings, out_dir=tmp_path)
-
-
-@pytest.mark.slow
-@pytest.mark.parametrize("scene_id", ["S9", "S10"])
-def test_quick_setting_under_a_minute(scene_id, tmp_path):
-    start = time.perf_counter()
-    res, png = run_scene(scene_id, quick=True, out_dir=tmp_path)
-    assert time.perf_counter() - start < 60.0
-    assert png.exists() and res.meta["key_numbers"]

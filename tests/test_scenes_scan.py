@@ -9,7 +9,7 @@ import pytest
 from bbdyn.cli import main
 from bbdyn.frequency_scan import FrequencyScanScene, scan_folder
 from bbdyn.results import load_result
-from bbdyn.scenes import redraw_scene, run_scene, scene_module
+from bbdyn.scenes import redraw_scene, scene_module
 
 TINY = {"f_start": 49.0, "f_stop": 89.0, "f_step": 20.0, "n": 6, "t": 1.0, "workers": 2}
 
@@ -82,11 +82,3 @@ def test_bbdyn_scan_json(tmp_path, capsys):
         main(argv + ["--out", str(tmp_path / "s")])
     assert main(argv + ["--out", str(tmp_path / "s"), "--resume"]) == 0
     assert "+-" in capsys.readouterr().out
-
-
-@pytest.mark.slow
-def test_quick_s3_within_a_minute(tmp_path, monkeypatch):
-    monkeypatch.setenv("BBDYN_CACHE", str(tmp_path / "cache"))
-    result, png = run_scene("S3", quick=True, out_dir=tmp_path)
-    assert png.exists()
-    assert result.meta["scene_wall_s"] < 60.0
