@@ -23,8 +23,14 @@ from dataclasses import asdict, dataclass
 import numpy as np
 
 from bbdyn.billiard import check_params
-from bbdyn.core.status import FAILURES, STATUS_MESSAGES, SimulationError
-from bbdyn.ensemble import Box, initial_conditions, kernel_states, reference_box
+from bbdyn.ensemble import (
+    Box,
+    initial_conditions,
+    kernel_states,
+    numba_threads,
+    raise_for_particles,
+    reference_box,
+)
 from bbdyn.params import Params
 from bbdyn.results import Result, make_meta
 
@@ -208,7 +214,6 @@ def trajectory_features(
     -------
     FeatureResult
     """
-    import numba
 
     from bbdyn.core import features as core
     from bbdyn.core.ensemble import run_features
@@ -243,26 +248,15 @@ def trajectory_features(
     }
     status = np.zeros(m, dtype=np.int64)
     end = np.array([p0 + blocks * L, 0.0])
-    old = numba.get_num_threads()
-    if threads is not None:
-        numba.set_num_threads(int(threads))
     start = time.perf_counter()
-    try:
+    with numba_threads(threads):
         run_features(
             states, params.kernel(), end, p0, L, int(blocks), th.tiny, th.k_tol, int(th.kmax),
             th.hist_width, out["blocks"], out["hist"], out["kcount"], out["glob"],
             out["mismatch"], status,
         )  # fmt: skip
-    finally:
-        numba.set_num_threads(old)
     wall = time.perf_counter() - start
-    failed = np.flatnonzero(np.isin(status, FAILURES))
-    if failed.size:
-        i = failed[0]
-        raise SimulationError(
-            f"{failed.size} particle(s) failed, e.g. particle {i} from (s, vx, vy) = "
-            f"{tuple(ics[i])}: {STATUS_MESSAGES[int(status[i])]} (status {status[i]})"
-        )
+    raise_for_particles(status, ics)
     out.update(initial=ics, box_index=box_index, status=status)
     meta = make_meta(
         params,

@@ -15,10 +15,12 @@ the number of threads).
 
 from __future__ import annotations
 
+import contextlib
 import math
 import time
 from dataclasses import dataclass
 
+import numba
 import numpy as np
 
 from bbdyn.billiard import check_params
@@ -91,6 +93,31 @@ def periods_phase(times_s: np.ndarray, f: float) -> tuple[np.ndarray, np.ndarray
     return whole, (cycles - whole) * 2.0 * math.pi
 
 
+@contextlib.contextmanager
+def numba_threads(threads: int | None):
+    """Run the block with ``threads`` numba threads (all if None); yields the number used."""
+    if threads is not None and not 1 <= int(threads) <= numba.config.NUMBA_NUM_THREADS:
+        raise ValueError(f"threads must be in [1, {numba.config.NUMBA_NUM_THREADS}], got {threads}")
+    old = numba.get_num_threads()
+    if threads is not None:
+        numba.set_num_threads(int(threads))
+    try:
+        yield numba.get_num_threads()
+    finally:
+        numba.set_num_threads(old)
+
+
+def raise_for_particles(status: np.ndarray, ics: np.ndarray) -> None:
+    """Raise ``SimulationError`` naming the first particle whose kernel status is a failure."""
+    failed = np.flatnonzero(np.isin(status, FAILURES))
+    if failed.size:
+        i = failed[0]
+        raise SimulationError(
+            f"{failed.size} particle(s) failed, e.g. particle {i} from (s, vx, vy) = "
+            f"{tuple(ics[i])}: {STATUS_MESSAGES[int(status[i])]} (status {status[i]})"
+        )
+
+
 def ensemble(
     params: Params,
     *,
@@ -156,7 +183,6 @@ def ensemble(
     >>> res = ensemble(Params(f=85.2), n=20, t=2.0, seed=1)   # doctest: +SKIP
     >>> D, D_se = res.D()                                     # doctest: +SKIP
     """
-    import numba
 
     from bbdyn.core import ensemble as core
 
@@ -226,15 +252,8 @@ def ensemble(
     final = np.zeros((n, 7))
     status = np.zeros(n, dtype=np.int64)
 
-    old_threads = numba.get_num_threads()
-    if threads is not None:
-        if not 1 <= int(threads) <= numba.config.NUMBA_NUM_THREADS:
-            raise ValueError(
-                f"threads must be in [1, {numba.config.NUMBA_NUM_THREADS}], got {threads}"
-            )
-        numba.set_num_threads(int(threads))
     start = time.perf_counter()
-    try:
+    with numba_threads(threads) as used_threads:
         core.run_ensemble(
             states,
             params.kernel(),
@@ -253,17 +272,8 @@ def ensemble(
             final,
             status,
         )
-    finally:
-        used_threads = numba.get_num_threads()
-        numba.set_num_threads(old_threads)
     wall = time.perf_counter() - start
-    failed = np.flatnonzero(np.isin(status, FAILURES))
-    if failed.size:
-        i = failed[0]
-        raise SimulationError(
-            f"{failed.size} particle(s) failed, e.g. particle {i} from (s, vx, vy) = "
-            f"{tuple(ics[i])}: {STATUS_MESSAGES[int(status[i])]} (status {status[i]})"
-        )
+    raise_for_particles(status, ics)
 
     t_window = (window[1] - window[0]) / params.f
     arrays = {
