@@ -22,3 +22,17 @@ def test_regime_map_on_a_tiny_scan(tmp_path, monkeypatch):
     assert list((tmp_path / "scans").glob("regime_*/manifest.json"))
     monkeypatch.setattr(module, "compute", None)  # redrawing must not recompute
     assert redraw_scene(tmp_path / "B1.json") == png
+
+
+def test_regime_bands_merge_equal_neighbours_and_cover_the_range():
+    from bbdyn.results import Result
+    from bbdyn.scenes.b1_regime_map import LABELS, regime_bands
+
+    f = np.array([50.0, 51.0, 52.0, 53.0, 54.0])
+    codes = np.array([0, 0, 3, 3, 4], dtype=float)  # a, a, c, c, d
+    result = Result({"f": f[::-1], "regime": codes[::-1]}, {})  # order must not matter
+    bands = regime_bands(result)
+    assert [b[2] for b in bands] == [LABELS[0], LABELS[3], LABELS[4]]
+    assert bands[0][0] == 50.0 and bands[-1][1] == 54.0
+    assert all(a[1] == b[0] for a, b in zip(bands, bands[1:], strict=False))
+    assert bands[0][1] == 51.5 and bands[1][1] == 53.5

@@ -112,3 +112,18 @@ def draw(result: Result, ax=None):
     axes[1].set(xlabel="f (Hz)", ylabel="basin fraction", ylim=(0, 1))
     axes[1].legend(fontsize=7, loc="lower right")
     return fig
+
+
+def regime_bands(result: Result) -> list[tuple[float, float, str]]:
+    """Runs of equal regime label as ``(f_lo, f_hi, label)`` bands (Hz), each band reaching
+    half way to the neighbouring frequencies (for S3's shading)."""
+    order = np.argsort(result["f"])
+    f, codes = result["f"][order], result["regime"][order].astype(int)
+    edges = np.concatenate([[f[0]], 0.5 * (f[1:] + f[:-1]), [f[-1]]])
+    bands = []
+    start = 0
+    for i in range(1, f.size + 1):
+        if i == f.size or codes[i] != codes[start]:
+            bands.append((float(edges[start]), float(edges[i]), LABELS[codes[start]]))
+            start = i
+    return bands

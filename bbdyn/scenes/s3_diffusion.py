@@ -3,8 +3,8 @@
 D is the late-window Einstein slope of the reference ensemble (MODEL.md section 3,
 ``bbdyn.frequency_scan.diffusion_point``), error bars one standard error over
 particles.  S3, S4 and S5 read one shared scan (``bbdyn.frequency_scan.scene_scan``),
-computed once per setting and seed.  Regime bands (SCENES.md) are drawn when a
-regime classifier provides them (``REGIME_BANDS``); none exists yet.
+computed once per setting and seed.  ``draw(result, regimes=b1)`` also shades the
+regime bands of a regime map (scene B1).
 """
 
 from __future__ import annotations
@@ -17,10 +17,6 @@ from bbdyn.params import Params
 TITLE = "Diffusion coefficient D(f) with standard errors and the k/1 tongues"
 QUICK = {"f_start": 49.8, "f_stop": 95.0, "f_step": 1.0, "n": 100, "t": 20.0}
 FULL = {"f_start": 49.8, "f_stop": 95.0, "f_step": 0.2, "n": 1000, "t": 200.0}
-
-#: Hook for regime bands: a function ``scene -> [(f_lo, f_hi, label), ...]`` (Hz), set
-#: by a regime classifier (MODEL.md section 5) when one exists; None draws no bands.
-REGIME_BANDS = None
 
 
 def compute(settings: dict, seed: int = 0, out_dir=None) -> FrequencyScanScene:
@@ -46,18 +42,22 @@ def key_numbers(scene: FrequencyScanScene) -> dict:
     }
 
 
-def draw(result: FrequencyScanScene, ax=None):
-    """D(f) with error bars, tongue intervals shaded; returns the Figure."""
+def draw(result: FrequencyScanScene, ax=None, regimes=None):
+    """D(f) with error bars, the k/1 tongues and, with ``regimes`` (a B1 result), the regime
+    bands; returns the Figure."""
     import matplotlib.pyplot as plt
 
     if ax is None:
         fig, ax = plt.subplots(figsize=(9, 4.2))
     else:
         fig = ax.figure
-    if REGIME_BANDS is not None:
-        for lo, hi, label in REGIME_BANDS(result):
-            ax.axvspan(lo, hi, color="0.85", lw=0)
-            ax.text(0.5 * (lo + hi), 0.95, label, transform=ax.get_xaxis_transform(), ha="center")
+    if regimes is not None:
+        from bbdyn.scenes.b1_regime_map import regime_bands
+
+        for lo, hi, label in regime_bands(regimes):
+            ax.axvspan(lo, hi, color="0.9", lw=0)
+            ax.text(0.5 * (lo + hi), 0.02, label, transform=ax.get_xaxis_transform(),
+                    ha="center", fontsize=7, color="0.3")  # fmt: skip
     result.mark_tongues(ax)
     result.plot(ax, key="D")
     bad = result["D_converged"] == 0
