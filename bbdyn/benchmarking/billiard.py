@@ -39,7 +39,7 @@ from bbdyn.benchmarking.fixed_step_billiard import (
     fixed_step_billiard_one_step,
     fixed_step_ensemble,
 )
-from bbdyn.benchmarking.timing import measure, single_thread
+from bbdyn.benchmarking.timing import ERROR_COLUMNS, format_rows, measure, single_thread
 from bbdyn.core.billiard import (
     billiard_event,
     billiard_flight,
@@ -526,16 +526,8 @@ def draw(result: BilliardBenchResult):
 
 def table(result: BilliardBenchResult) -> str:
     """The rows, the observables comparison and the profile as plain text."""
-    head = f"{'method':<11} {'setting':<48} {'coll/s':>9} {'max dt (s)':>10} "
-    head += f"{'max dv (mm/s)':>13} {'med dt (s)':>10} {'wrong':>5} {'cost/exact':>10}"
-    lines = [head]
-    for r in result.meta["rows"]:
-        lines.append(
-            f"{r['method']:<11} {r['setting']:<48} {r['collisions_per_s']:>9.3g} "
-            f"{r['max_time_error_s']:>10.2e} {r['max_velocity_error']:>13.2e} "
-            f"{r.get('median_time_error_s', math.nan):>10.2e} {r.get('wrong_contacts', 0):>5} "
-            f"{r['cost_ratio_to_exact']:>10.3g}"
-        )
+    columns = (("collisions_per_s", "coll/s", 9, ".3g"), *ERROR_COLUMNS)
+    lines = format_rows(result.meta["rows"], columns, 48)
     cfg = result.meta["settings"]["observables"]
     lines += ["", f"observables at {result.meta['case']['f']} Hz, n={cfg['n']}, t={cfg['t']} s:"]
     for r in result.meta["observables"]:

@@ -40,7 +40,7 @@ import numpy as np
 from numba import njit
 
 from bbdyn.benchmarking.fixed_step import fixed_step_one_step, fixed_step_run
-from bbdyn.benchmarking.timing import measure, single_thread
+from bbdyn.benchmarking.timing import ERROR_COLUMNS, format_rows, measure, single_thread
 from bbdyn.core.flat import flat_flight_tol, flat_run, flat_run_count
 from bbdyn.core.plate import TWO_PI
 from bbdyn.core.status import IMPACT, OK, STICK, raise_for_status
@@ -564,16 +564,12 @@ def draw(result: FlatBenchResult):
 
 def table(result: FlatBenchResult) -> str:
     """The rows as a plain-text table, then the long-run statistics."""
-    head = f"{'method':<11} {'setting':<50} {'impacts/s':>10} {'max dt (s)':>10} "
-    head += f"{'max dv (mm/s)':>13} {'med dt (s)':>10} {'wrong':>5} {'cost/exact':>10} {'evals':>6}"
-    lines = [head]
-    for r in result.meta["rows"]:
-        lines.append(
-            f"{r['method']:<11} {r['setting']:<50} {r['impacts_per_s']:>10.3g} "
-            f"{r['max_time_error_s']:>10.2e} {r['max_velocity_error']:>13.2e} "
-            f"{r.get('median_time_error_s', math.nan):>10.2e} {r.get('wrong_contacts', 0):>5} "
-            f"{r['cost_ratio_to_exact']:>10.3g} {r.get('gap_evals_per_impact', math.nan):>6.3g}"
-        )
+    columns = (
+        ("impacts_per_s", "impacts/s", 10, ".3g"),
+        *ERROR_COLUMNS,
+        ("gap_evals_per_impact", "evals", 6, ".3g"),
+    )
+    lines = format_rows(result.meta["rows"], columns, 50)
     lines.append("")
     lines.append(f"long run ({result.meta['case']['f']} Hz, alpha {result.meta['case']['alpha']}):")
     for r in result.meta["long_run"]:

@@ -9,6 +9,7 @@ numbers from another run or machine.
 
 from __future__ import annotations
 
+import math
 import statistics
 import time
 from collections.abc import Callable
@@ -101,3 +102,31 @@ def ratios(values: dict[str, float], reference: str) -> dict[str, float]:
     """Each value divided by ``values[reference]`` (medians from the same run)."""
     ref = values[reference]
     return {key: value / ref for key, value in values.items()}
+
+
+#: Columns shared by the work-precision tables: (row key, header, width, format).
+ERROR_COLUMNS = (
+    ("max_time_error_s", "max dt (s)", 10, ".2e"),
+    ("max_velocity_error", "max dv (mm/s)", 13, ".2e"),
+    ("median_time_error_s", "med dt (s)", 10, ".2e"),
+    ("wrong_contacts", "wrong", 5, ""),
+    ("cost_ratio_to_exact", "cost/exact", 10, ".3g"),
+)
+
+
+def format_rows(rows: list[dict], columns, setting_width: int) -> list[str]:
+    """Benchmark rows as plain-text lines: method, setting, then ``columns``.
+
+    ``columns`` holds ``(key, header, width, format)``; a missing value prints as
+    nan (0 for a column without a format: counts).
+    """
+    head = f"{'method':<11} {'setting':<{setting_width}}"
+    head += "".join(f" {title:>{width}}" for _, title, width, _ in columns)
+    lines = [head]
+    for r in rows:
+        line = f"{r['method']:<11} {r['setting']:<{setting_width}}"
+        for key, _, width, spec in columns:
+            value = r.get(key, 0 if spec == "" else math.nan)
+            line += f" {value:>{width}{spec}}"
+        lines.append(line)
+    return lines
