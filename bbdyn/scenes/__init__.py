@@ -37,6 +37,16 @@ SCENES = {
 }
 
 
+def figure_axes(ax=None, **subplots_kwargs):
+    """``(figure, axes)`` to draw on: ``ax`` and its figure, or a new figure made with
+    ``plt.subplots(**subplots_kwargs)`` when ``ax`` is None."""
+    if ax is not None:
+        return ax.figure, ax
+    import matplotlib.pyplot as plt
+
+    return plt.subplots(**subplots_kwargs)
+
+
 def scene_module(scene_id: str):
     """The module of scene ``scene_id`` (case-insensitive), or ValueError listing the known ids."""
     key = scene_id.upper()

@@ -17,6 +17,7 @@ import time
 import numpy as np
 
 from bbdyn.results import Result, make_meta
+from bbdyn.scenes import figure_axes
 from bbdyn.scenes.s9_random_walk import scan_points
 
 TITLE = "Green-Kubo: Einstein D and truncated D_n (n = 0, 2, 4, 7, 10) on a fine f grid"
@@ -73,12 +74,7 @@ def compute(settings: dict, seed: int = 0, out_dir=None) -> SceneS10Result:
 
 def draw(result: Result, ax=None):
     """D (band and points) and D_n for the chosen orders against f; returns the Figure."""
-    import matplotlib.pyplot as plt
-
-    if ax is None:
-        fig, ax = plt.subplots(figsize=(7, 4.5), layout="constrained")
-    else:
-        fig = ax.figure
+    fig, ax = figure_axes(ax, figsize=(7, 4.5), layout="constrained")
     f, D, D_err = result["f"], result["D"], result["D_err"]
     ax.fill_between(f, D - D_err, D + D_err, color="k", alpha=0.15, lw=0)
     ax.plot(f, D, "k.-", lw=1, label="Einstein $D$ (band: 1 err)")

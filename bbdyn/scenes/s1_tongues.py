@@ -13,6 +13,7 @@ import time
 import numpy as np
 
 from bbdyn.results import Result, make_meta
+from bbdyn.scenes import figure_axes
 from bbdyn.tongues import gamma_hi_numeric, gamma_lo_numeric, tongue_gamma_hi, tongue_gamma_lo
 
 TITLE = "Arnold tongues k/1 of the flat ball: closed form and exact-map multipliers"
@@ -57,12 +58,7 @@ def compute(settings: dict, seed: int = 0) -> SceneS1Result:
 
 def draw(result: Result, ax=None):
     """Tongues as shaded bands in (Gamma, alpha), numeric edges as markers; returns the Figure."""
-    import matplotlib.pyplot as plt
-
-    if ax is None:
-        fig, ax = plt.subplots(figsize=(6.5, 4.5))
-    else:
-        fig = ax.figure
+    fig, ax = figure_axes(ax, figsize=(6.5, 4.5))
     a = result["alpha_curve"]
     for i, k in enumerate(result["k"]):
         lo, hi = result["gamma_lo_curve"][i], result["gamma_hi_curve"][i]

@@ -15,6 +15,7 @@ import numpy as np
 from bbdyn.core.floor import arc_coordinates, xi_from_arc_length
 from bbdyn.params import Params
 from bbdyn.results import Result, make_meta
+from bbdyn.scenes import figure_axes
 
 TITLE = "The bouncing ball billiard: floor of arcs, drive, arc length and velocities"
 QUICK = {"f": 58.0, "tiles": 3, "points": 121, "s_frac": 0.3}
@@ -64,12 +65,7 @@ def compute(settings: dict, seed: int = 0) -> SceneS2Result:
 
 def draw(result: Result, ax=None):
     """The sketch; returns the Figure."""
-    import matplotlib.pyplot as plt
-
-    if ax is None:
-        fig, ax = plt.subplots(figsize=(8, 4.5))
-    else:
-        fig = ax.figure
+    fig, ax = figure_axes(ax, figsize=(8, 4.5))
     p = result.meta["params"]
     A, d = p["A"], p["d"]
     x, b = result["x"], result["b"]

@@ -13,6 +13,7 @@ import numpy as np
 
 from bbdyn.frequency_scan import FrequencyScanScene, scene_scan
 from bbdyn.params import Params
+from bbdyn.scenes import figure_axes
 
 TITLE = "Diffusion coefficient D(f) with standard errors and the k/1 tongues"
 QUICK = {"f_start": 49.8, "f_stop": 95.0, "f_step": 1.0, "n": 100, "t": 20.0}
@@ -45,12 +46,7 @@ def key_numbers(scene: FrequencyScanScene) -> dict:
 def draw(result: FrequencyScanScene, ax=None, regimes=None):
     """D(f) with error bars, the k/1 tongues and, with ``regimes`` (a B1 result), the regime
     bands; returns the Figure."""
-    import matplotlib.pyplot as plt
-
-    if ax is None:
-        fig, ax = plt.subplots(figsize=(9, 4.2))
-    else:
-        fig = ax.figure
+    fig, ax = figure_axes(ax, figsize=(9, 4.2))
     if regimes is not None:
         from bbdyn.scenes.b1_regime_map import regime_bands
 

@@ -11,6 +11,7 @@ import numpy as np
 
 from bbdyn.frequency_scan import FrequencyScanScene, scene_scan
 from bbdyn.params import Params
+from bbdyn.scenes import figure_axes
 from bbdyn.scenes.s3_diffusion import FULL, QUICK
 
 TITLE = "Steady-state energy E(f) and the line A^2 w^2 / 2"
@@ -34,12 +35,7 @@ def compute(settings: dict, seed: int = 0, out_dir=None) -> FrequencyScanScene:
 
 def draw(result: FrequencyScanScene, ax=None):
     """E(f) with error bars and A^2 w^2 / 2; returns the Figure."""
-    import matplotlib.pyplot as plt
-
-    if ax is None:
-        fig, ax = plt.subplots(figsize=(9, 4.2))
-    else:
-        fig = ax.figure
+    fig, ax = figure_axes(ax, figsize=(9, 4.2))
     result.mark_tongues(ax)
     result.plot(ax, key="E")
     ax.plot(result["f"], result["E_reference"], "k--", lw=1, label=r"$A^2\omega^2/2$")

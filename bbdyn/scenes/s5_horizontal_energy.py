@@ -11,6 +11,7 @@ import numpy as np
 
 from bbdyn.frequency_scan import FrequencyScanScene, scene_scan
 from bbdyn.params import Params
+from bbdyn.scenes import figure_axes
 from bbdyn.scenes.s3_diffusion import FULL, QUICK
 
 TITLE = "Steady-state horizontal kinetic energy E_x(f)"
@@ -31,12 +32,7 @@ def compute(settings: dict, seed: int = 0, out_dir=None) -> FrequencyScanScene:
 
 def draw(result: FrequencyScanScene, ax=None):
     """E_x(f) with error bars; returns the Figure."""
-    import matplotlib.pyplot as plt
-
-    if ax is None:
-        fig, ax = plt.subplots(figsize=(9, 4.2))
-    else:
-        fig = ax.figure
+    fig, ax = figure_axes(ax, figsize=(9, 4.2))
     result.mark_tongues(ax)
     result.plot(ax, key="E_x")
     ax.set_ylabel(r"$E_x = \langle v_x^2/2 \rangle$ (kg mm$^2$/s$^2$)")

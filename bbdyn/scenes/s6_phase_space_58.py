@@ -13,6 +13,7 @@ import numpy as np
 
 from bbdyn.params import Params
 from bbdyn.poincare import PoincareResult, poincare
+from bbdyn.scenes import figure_axes
 
 TITLE = "Phase space (s, vx+) at collisions at 58 Hz"
 QUICK = {"f": 58.0, "n": 200, "transient": 10.0, "particles": 200, "n_events": 150}
@@ -57,12 +58,7 @@ def _range(values: np.ndarray) -> list[float]:
 
 def draw(result: PoincareResult, ax=None):
     """(s, vx+) with tiny hops in orange; returns the Figure."""
-    import matplotlib.pyplot as plt
-
-    if ax is None:
-        fig, ax = plt.subplots(figsize=(6.5, 4.5))
-    else:
-        fig = ax.figure
+    fig, ax = figure_axes(ax, figsize=(6.5, 4.5))
     result.plot(ax=ax, projection="s_vx")
     k = result.meta["key_numbers"]
     ax.set_xlim(0, Params(**result.meta["params"]).s_max)
