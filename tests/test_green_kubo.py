@@ -143,6 +143,28 @@ def test_symbol_probabilities_of_the_persistent_walk():
     assert res.p("f")[0] - res.p("b")[0] == pytest.approx(res["corr"][1] / D**2, rel=1e-12)
 
 
+def test_symbols_are_relative_to_h_0_not_to_the_jump_before():
+    """+1 +1 -1 -1: from h_0 = +1 the pairs (h_1, h_2) are (+1, -1) -> fb and (-1, -1) -> bb.
+
+    Relative to the jump before, the second would read bf; the table must say bb.
+    """
+    data = JumpData.from_particles([[1, 1, -1, -1]], [[1.0, 2.0, 3.0, 4.0]], 4.0, D)
+    res = green_kubo(data, 2, n_boot=2)
+    assert [res.p(w)[0] for w in ("ff", "fb", "bf", "bb")] == [0.0, 0.5, 0.0, 0.5]
+    assert [res.p(w)[0] for w in ("f", "b")] == pytest.approx([2 / 3, 1 / 3], rel=1e-15)
+
+
+def test_escape_time_of_the_series_counts_particles_that_never_jump():
+    """Two persistent walkers plus two that never jump: tau doubles, so D_0 halves."""
+    walkers = persistent_walk(0.7, 2, 20.0, np.random.default_rng(6), n_jumps=50)
+    quiet = JumpData(
+        walkers.jumps, walkers.times, np.r_[walkers.offsets, [100, 100]], walkers.t_total, D
+    )
+    a, b = green_kubo(walkers, 3, n_boot=20), green_kubo(quiet, 3, n_boot=20)
+    assert a.tau == pytest.approx(20.0 / 50, rel=1e-15) and b.tau == pytest.approx(2 * a.tau)
+    np.testing.assert_allclose(b.D_n, a.D_n / 2, rtol=1e-14)
+
+
 def test_long_jumps_correlation_route_exact_symbol_route_on_directions():
     """With |h| = 2d jumps D_0 = <h^2> / (2 tau) (correlation route) but D_rw = d^2 / (2 tau)."""
     data = persistent_walk(

@@ -90,6 +90,22 @@ def test_escape_time_is_exact_for_equal_counts():
     assert (esc.n_jumps, esc.n_particles) == (21, 3)
 
 
+def test_escape_time_counts_the_time_of_particles_that_never_jump():
+    """One particle jumps 4 times in 2 s, one never jumps: 4 jumps in 4 particle-seconds.
+
+    tau is the inverse of the ensemble's jump rate, so the quiet particle's time counts:
+    tau = 1 s (averaging over the jumping particle only would give 0.5 s).
+    """
+    data = JumpData.from_particles([[1, -1, 1, 1], []], [[0.2, 0.7, 1.1, 1.9], []], 2.0, 2.0)
+    est = random_walk_diffusion(data)
+    assert est.tau == 1.0 and (escape_time(data).n_jumps, escape_time(data).n_particles) == (4, 2)
+    assert est.D_rw == data.d**2 / 2.0
+    # the rate is a count per particle-second: adding quiet particles lowers it in proportion
+    quiet = JumpData.from_particles([[1, -1, 1, 1], [], [], []], [[0.2, 0.7, 1.1, 1.9], [], [], []],
+                                    2.0, 2.0)
+    assert escape_time(quiet).tau == 2.0 * escape_time(data).tau
+
+
 def test_escape_time_error_covers_the_true_tau():
     """Poisson jumps at rate 5/s: |tau - 0.2 s| < tau_err in ~68 % of 200 ensembles (3 sd band)."""
     hits = []
