@@ -2,6 +2,7 @@
 
 import math
 
+import numpy as np
 import pytest
 from scipy.optimize import brentq
 
@@ -182,3 +183,66 @@ def test_start_on_a_wedge_must_leave_both_arcs(s_at):
     state = state_from_section(params, s, vx, 4.0)
     nxt = billiard_event(*state, params.kernel())
     assert nxt[7] in (OK, STUCK_FOREVER)
+
+
+def _window(gamma):
+    """Release window (theta_r, theta_e) of sin(theta) < -1/Gamma, from its closed form."""
+    a = math.asin(1.0 / gamma)
+    return math.pi + a, TWO_PI - a
+
+
+def test_wedge_collapse_inside_release_window_leaves_at_once():
+    """Issue 10: a wedge collapse (R = 1.01 mm, d = 2 mm) at phase 4.333, inside the release
+    window (3.97, 5.45) where the floor falls faster than g, is a stick of zero duration: the
+    next event is the RELEASE at the same time and point, not one period later.  The flight
+    that follows falls straight onto the wedge (vx = 0): its gap, from the absolute positions
+    of particle and floor, is positive before the contact, after theta_e, and zero there."""
+    params = Params(f=58.0, R=1.01)
+    kp = params.kernel()
+    theta_r, theta_e = _window(params.gamma)
+    traj = simulate(
+        params, n_events=5000, s0=1.7775522733060598, vx0=-9.305795659049323, vy0=39.89118749577923
+    )
+    kind, periods, phase = traj["kind"], traj["periods"], traj["phase"]
+    inside = np.flatnonzero((kind[:-1] == STICK) & (theta_r < phase[:-1]) & (phase[:-1] < theta_e))
+    assert inside.size >= 1
+    for i in inside:
+        assert kind[i + 1] == RELEASE
+        assert (periods[i + 1], phase[i + 1]) == (periods[i], phase[i])
+        assert (traj["tile"][i + 1], traj["xi"][i + 1]) == (traj["tile"][i], traj["xi"][i])
+        assert traj["vx"][i + 1] == 0.0 and traj["vyrel"][i + 1] == 0.0
+    i = inside[0] + 1
+    assert abs(traj["xi"][i]) == kp.d / 2  # on the wedge
+    tau = ((periods[i + 1] - periods[i]) * TWO_PI + phase[i + 1] - phase[i]) / kp.w
+    assert kind[i + 1] in (IMPACT, STICK) and phase[i] + kp.w * tau > theta_e
+
+    def gap(t):  # particle leaving with the floor's velocity minus the floor, absolute (mm)
+        th = phase[i]
+        y = -kp.A * math.sin(th) - kp.A * kp.w * math.cos(th) * t - 0.5 * kp.g * t * t
+        return y + kp.A * math.sin(th + kp.w * t)
+
+    scale = kp.A * kp.w * tau + kp.g * tau * tau + kp.A
+    assert abs(gap(tau)) <= 1e-13 * scale
+    assert all(gap(tau * j / 200) > 0 for j in range(1, 200))
+
+
+@pytest.mark.parametrize("where", ["theta_r", "middle", "just_before_theta_e", "theta_e"])
+def test_stick_release_time(where):
+    """A stick at theta in [theta_r, theta_e) releases at once; before theta_r it waits for
+    theta_r of its period, from theta_e on for theta_r of the next."""
+    kp = Params(f=85.2).kernel()
+    theta_r, theta_e = _window(kp.gamma)
+    theta = {
+        "theta_r": theta_r,
+        "middle": 0.5 * (theta_r + theta_e),
+        "just_before_theta_e": theta_e * (1 - 4 * EPS),
+        "theta_e": theta_e * (1 + 4 * EPS),
+    }[where]
+    ev = billiard_event(5.0, theta, 2.0, 0.25, 0.0, 0.0, STICK, kp)
+    assert ev[6] == RELEASE and ev[7] == OK and ev[2:6] == (2.0, 0.25, 0.0, 0.0)
+    if where == "theta_e":
+        assert ev[0] == 6.0 and math.isclose(ev[1], theta_r, rel_tol=4 * EPS)
+    else:
+        assert (ev[0], ev[1]) == (5.0, theta)
+        nxt = billiard_event(*ev[:7], kp)  # the flight from the release is valid
+        assert nxt[7] == OK and (nxt[0] - 5.0) * TWO_PI + nxt[1] > theta_e

@@ -109,13 +109,15 @@ def test_first_contact_matches_bruteforce(phase, xi, vx, vyrel):
 
 
 def test_release_then_flight():
-    """STICK -> RELEASE at theta_r = pi + asin(1/Gamma) with zero relative velocity."""
+    """STICK -> RELEASE at theta_r = pi + asin(1/Gamma) with zero relative velocity; a stick
+    after theta_e = 2 pi - asin(1/Gamma) waits for theta_r of the next period."""
     theta_r = math.pi + math.asin(1.0 / P.gamma)
+    theta_e = 2 * math.pi - math.asin(1.0 / P.gamma)
     ev = billiard_event(3.0, 1.0, 7.0, 0.4, 0.0, 0.0, STICK, KP)
     assert ev[6] == RELEASE and ev[7] == OK
     assert ev[0] == 3.0 and math.isclose(ev[1], theta_r, rel_tol=4 * EPS)
     assert ev[2:6] == (7.0, 0.4, 0.0, 0.0)
-    late = billiard_event(3.0, 5.0, 7.0, 0.4, 0.0, 0.0, STICK, KP)
+    late = billiard_event(3.0, 0.5 * (theta_e + 2 * math.pi), 7.0, 0.4, 0.0, 0.0, STICK, KP)
     assert late[0] == 4.0 and late[1] == ev[1]
     nxt = billiard_event(*ev[:7], KP)
     assert nxt[7] == OK and nxt[6] in (IMPACT, STICK)

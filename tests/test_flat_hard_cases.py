@@ -164,6 +164,32 @@ def test_release_exactly_at_theta_r(f):
     assert np.all(traj["kind"][idx - 1] == STICK)
 
 
+@pytest.mark.parametrize("where", ["theta_r", "middle", "just_before_theta_e", "theta_e"])
+def test_stuck_start_releases_at_once_inside_the_window(where):
+    """Issue 10: a particle resting on the plate while sin(w t) < -1/Gamma (theta_r <= theta <
+    theta_e, the plate falls faster than g) leaves at once, with the plate's velocity; from
+    theta_e on the plate holds it until theta_r of the next period."""
+    p = Params(f=58.0)
+    a = math.asin(1 / p.gamma)
+    theta_r, theta_e = math.pi + a, 2 * math.pi - a
+    theta = {
+        "theta_r": theta_r,
+        "middle": 0.5 * (theta_r + theta_e),
+        "just_before_theta_e": theta_e * (1 - 4 * EPS),
+        "theta_e": theta_e * (1 + 4 * EPS),
+    }[where]
+    traj = simulate_flat(p, n_events=3, phase0=theta, stuck=True)
+    assert traj["kind"][1] == RELEASE and traj["vrel"][1] == 0.0
+    if where == "theta_e":
+        assert traj["periods"][1] == 1.0
+        assert math.isclose(traj["phase"][1], theta_r, rel_tol=4 * EPS)
+    else:
+        assert (traj["periods"][1], traj["phase"][1]) == (0.0, theta)
+        # the flight from there is the release flight: no contact before theta_e
+        t2 = traj["periods"][2] * 2 * math.pi + traj["phase"][2]
+        assert traj["kind"][2] in (IMPACT, STICK) and t2 > theta_e
+
+
 def test_gamma_below_one_terminates_stuck_forever():
     p = Params(f=40.0)  # Gamma = 0.64
     traj = simulate_flat(p, n_events=100_000, vrel0=10.0)

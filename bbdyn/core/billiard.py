@@ -39,7 +39,7 @@ import math
 
 from numba import njit
 
-from bbdyn.core.flat import flat_gap, safe_step
+from bbdyn.core.flat import flat_flight_evals, flat_gap, safe_step, stick_release
 from bbdyn.core.floor import arc_root, bounce, floor_drop
 from bbdyn.core.plate import advance_phase, release_window
 from bbdyn.core.status import (
@@ -50,7 +50,6 @@ from bbdyn.core.status import (
     RELEASE,
     ROOT_NOT_CONVERGED,
     STICK,
-    STUCK_FOREVER,
 )
 from bbdyn.core.tolerances import (
     CHATTER_REL_TOL,
@@ -195,6 +194,13 @@ def billiard_flight(phase, xi0, vx, vyrel, kp):
     if abs(Gp) <= DEPARTURE_REL_TOL * (abs(vyrel) + abs(vx * xi0) / S0):
         Gp = 0.0  # tangent departure (alpha = 0): rounding of V.n = 0 must not count
     theta_r, theta_e = release_window(kp.gamma)
+    if vx == 0.0 and theta_r < phase < theta_e:
+        # Released inside the window (a stick there lasts zero time): the particle stays
+        # over xi0, so G is the flat ball's gap.  Near theta_e its contact is of third order
+        # (G'' -> 0), which the flat search's cubic bound finds in a few steps where the
+        # quadratic bound M here would crawl (~1/sqrt(theta_e - phase) steps).
+        tau, vrel_minus, status, n_evals = flat_flight_evals(phase, vyrel, kp)
+        return tau, k_base, xi0, vrel_minus, n_evals, status
     if theta_r <= phase < theta_e:
         # G'' > 0 on a tile until theta_e and G(0) = 0, G'(0) >= 0: no contact before
         # theta_e or the first tile crossing, whichever comes first.
@@ -386,9 +392,10 @@ def billiard_event(periods, phase, tile, xi, vx, vyrel, kind, kp):
     Returns
     -------
     (periods, phase, tile, xi, vx, vyrel, kind, status) of the next event.
-    A stuck particle is released at ``theta_r = pi + asin(1/Gamma)`` with the
-    floor's velocity; for Gamma <= 1 the state is returned unchanged with
-    ``STUCK_FOREVER``.
+    A stuck particle is released with the floor's velocity at ``theta_r = pi +
+    asin(1/Gamma)``, or at once if it stuck inside the release window (a wedge
+    collapse while the floor falls faster than g; ``stick_release``); for
+    Gamma <= 1 the state is returned unchanged with ``STUCK_FOREVER``.
 
     Examples
     --------
@@ -399,12 +406,10 @@ def billiard_event(periods, phase, tile, xi, vx, vyrel, kind, kp):
     True
     """
     if kind == STICK:
-        theta_r, _ = release_window(kp.gamma)
-        if theta_r < 0.0:
-            return periods, phase, tile, xi, 0.0, 0.0, STICK, STUCK_FOREVER
-        if phase <= theta_r:
-            return periods, theta_r, tile, xi, 0.0, 0.0, RELEASE, OK
-        return periods + 1.0, theta_r, tile, xi, 0.0, 0.0, RELEASE, OK
+        periods_r, phase_r, status = stick_release(periods, phase, kp.gamma)
+        if status != OK:
+            return periods, phase, tile, xi, 0.0, 0.0, STICK, status
+        return periods_r, phase_r, tile, xi, 0.0, 0.0, RELEASE, OK
 
     tau, k, xi_c, vyrel_minus, _, status = billiard_flight(phase, xi, vx, vyrel, kp)
     if status != OK:

@@ -294,6 +294,32 @@ def chatter_time(phase, vrel, kp):
 
 
 @njit(cache=True, error_model="numpy")
+def stick_release(periods, phase, gamma):
+    """Time of the release that ends a stick at ``(periods, phase)`` (flat ball and billiard).
+
+    The floor holds a particle resting on it while its acceleration is above
+    -g, i.e. outside the release window ``theta_r <= theta < theta_e`` of
+    ``release_window``.  A stick inside the window lasts zero time: the
+    particle leaves at once, at ``phase``.  Before it, the particle leaves at
+    ``theta_r`` of the same period; from ``theta_e`` on, at ``theta_r`` of the
+    next one.  The flight that follows starts with the floor's velocity and is
+    the release flight of ``flat_flight`` and ``billiard_flight``.
+
+    Returns ``(periods, phase, status)`` of the release: whole periods, phase
+    (rad) and ``OK``, or the stick's own time and ``STUCK_FOREVER`` for
+    Gamma <= 1 (no window: it never leaves).
+    """
+    theta_r, theta_e = release_window(gamma)
+    if theta_r < 0.0:
+        return periods, phase, STUCK_FOREVER
+    if theta_r <= phase < theta_e:
+        return periods, phase, OK
+    if phase < theta_r:
+        return periods, theta_r, OK
+    return periods + 1.0, theta_r, OK
+
+
+@njit(cache=True, error_model="numpy")
 def flat_event(periods, phase, vrel, kind, kp):
     """Advance the flat ball from one event to the next.
 
@@ -313,12 +339,10 @@ def flat_event(periods, phase, vrel, kind, kp):
     ``STUCK_FOREVER`` (state unchanged) for a stuck particle with Gamma <= 1.
     """
     if kind == STICK:
-        theta_r, _ = release_window(kp.gamma)
-        if theta_r < 0.0:
-            return periods, phase, 0.0, STICK, STUCK_FOREVER
-        if phase <= theta_r:
-            return periods, theta_r, 0.0, RELEASE, OK
-        return periods + 1.0, theta_r, 0.0, RELEASE, OK
+        periods_r, phase_r, status = stick_release(periods, phase, kp.gamma)
+        if status != OK:
+            return periods, phase, 0.0, STICK, status
+        return periods_r, phase_r, 0.0, RELEASE, OK
 
     tau, vrel_minus, status = flat_flight(phase, vrel, kp)
     if status != OK:

@@ -6,8 +6,8 @@ exception whose message is ``STATUS_MESSAGES[code]``.
 
 # Event kinds recorded at each event of a trajectory.
 IMPACT = 0  #: a collision with the floor
-STICK = 1  #: end of a chattering sequence (or zero relative velocity): rides the floor
-RELEASE = 2  #: leaves the floor where sin(w t) = -1/Gamma, with the floor's velocity
+STICK = 1  #: end of chattering, zero relative velocity or a wedge collapse: rides the floor
+RELEASE = 2  #: leaves with the floor's velocity at sin(w t) = -1/Gamma (at once inside the window)
 
 EVENT_NAMES = {IMPACT: "impact", STICK: "stick", RELEASE: "release"}
 
