@@ -1,4 +1,4 @@
-"""Analytic random-walk diffusion coefficient D_a from the energy balance (MODEL.md section 4).
+"""Analytic random-walk diffusion coefficient D_a from the energy balance (docs/model.md, sec. 4).
 
 Run ``python derivations/random_walk.py`` to print the derivation step by step;
 ``analytic_diffusion_expr()`` returns the result as a sympy expression, which
@@ -60,6 +60,6 @@ if __name__ == "__main__":
         print(f"{text}:\n    {expr}\n")
     target = d / 2 * sp.sqrt((A**2 * w**2 - 2 * g * A) / (1 + r))
     print(
-        "equals MODEL.md's (d/2) sqrt((A^2 w^2 - 2 g A)/(1 + r)):",
+        "equals the model's (d/2) sqrt((A^2 w^2 - 2 g A)/(1 + r)):",
         sp.simplify(analytic_diffusion_expr() - target) == 0,
     )
