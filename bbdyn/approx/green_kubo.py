@@ -1,4 +1,4 @@
-"""Truncated Green-Kubo expansion of the diffusion coefficient (MODEL.md section 4).
+"""Truncated Green-Kubo expansion of the diffusion coefficient (docs/model.md, section 4).
 
 With the jumps ``h_k`` (mm) of a particle's jump sequence and ``tau`` the escape
 time (``random_walk.escape_time``),
@@ -10,12 +10,16 @@ Correlation route (exact for any jump lengths): ``<h_0 h_k>`` is the mean of
 mean over the particles that have more than ``k`` jumps (their number is
 reported per lag).  ``tau`` is pooled over all particles, jumping or not.
 
-Symbol route (the +-1 alphabet): label the jumps that follow a jump ``h_0`` by
-``f`` (same direction as ``h_0``) or ``b`` (opposite).  ``p_w`` for a word ``w``
-of length k (``p_f``, ``p_b``, ``p_ff``, ``p_fb``, ...) is the probability that
-the k jumps after a jump carry the symbols ``w``, conditioned on that jump
-(either direction: both are pooled).  Since ``h_0 h_k = d^2 (+1 if the last
-symbol is f, -1 if b)`` for unit jumps,
+Symbol route (the +-1 alphabet).  The symbol convention of bbdyn, used by the
+code, ``docs/green_kubo.md`` and the notebooks: the jumps ``h_1, h_2, ...`` that
+follow a jump ``h_0`` are labelled ``f`` (same direction as ``h_0``) or ``b``
+(opposite to ``h_0``), every symbol relative to ``h_0``, not to the jump before
+it.  From ``h_0 = +1``, the jumps ``+1 -1 -1`` read ``fbb`` (relative to the jump
+before they would read ``fbf``).  ``p_w`` for a word ``w`` of length k (``p_f``,
+``p_b``, ``p_ff``, ``p_fb``, ...) is the probability that the k jumps after a
+jump carry the symbols ``w``, conditioned on that jump (either direction: both
+are pooled).  Since ``h_0 h_k = d^2 (+1 if the last symbol is f, -1 if b)`` for
+unit jumps (derivation: ``derivations/green_kubo_symbols.py``),
 
     D_n = D_0 (1 + 2 sum_{k=1..n} sum_{|w| = k} sign(w_k) p_w),   D_0 = d^2 / (2 tau) = D_rw,
 
@@ -262,8 +266,9 @@ class GreenKuboResult(Result):
     NaN beyond); errors are NaN where some bootstrap resample holds no particle
     with more than n jumps; ``corr``, ``corr_err`` (``<h_0 h_k>``, mm^2);
     ``n_particles_used`` per lag; ``words``, ``p_words``, ``p_words_err`` (symbol
-    table); ``jump_lengths`` (h/d), ``jump_counts``.  Meta: ``tau``, ``tau_err``
-    (s), ``D_rw``, ``D_rw_err``, ``fraction_long``, ``D_einstein`` (or None), ...
+    table, symbols relative to h_0); ``jump_lengths`` (h/d), ``jump_counts``.
+    Meta: ``tau``, ``tau_err`` (s), ``D_rw``, ``D_rw_err``, ``fraction_long``,
+    ``D_einstein`` (or None), ...
     """
 
     kind = "green_kubo"
@@ -284,7 +289,8 @@ class GreenKuboResult(Result):
         return self.meta["tau"]
 
     def p(self, word: str) -> tuple[float, float]:
-        """Probability of the symbol word (e.g. ``"fb"``) and its bootstrap error."""
+        """Probability of the symbol word (e.g. ``"fb"``, symbols relative to h_0 as in the
+        module docstring) and its bootstrap error."""
         hit = np.flatnonzero(self.arrays["words"] == word)
         if hit.size == 0:
             longest = max((len(w) for w in self.arrays["words"]), default=0)

@@ -1,7 +1,8 @@
 """Escape time, jump lengths and random-walk diffusion (MODEL.md section 4).
 
 * Escape time ``tau``: the inverse jump rate, pooled over the ensemble,
-  ``tau = n_particles t_total / n_jumps`` (s).  It counts the time before the
+  ``tau = n_particles t_total / n_jumps`` (s), over all particles, including
+  those that never jump (their time counts).  It counts the time before the
   first and after the last jump, so it is the unbiased inverse of the rate
   even when a particle jumps only a few times.  Its standard error comes from
   the spread of the jump counts over particles (delta method).
