@@ -7,8 +7,8 @@ from numba import njit
 
 from bbdyn.core.billiard import billiard_run, flight_gap
 from bbdyn.core.floor import floor_height_rel
-from bbdyn.core.status import IMPACT, STICK
-from bbdyn.core.tolerances import GAP_REL_TOL
+from bbdyn.core.status import IMPACT, RELEASE, STICK
+from bbdyn.core.tolerances import EPS, GAP_REL_TOL
 
 TWO_PI = 2.0 * math.pi
 
@@ -56,3 +56,38 @@ def run_arrays(kp, state0, n_events):
         a[0] = v
     n_done, status = billiard_run(*state0, kp, *(a[1:] for a in out))
     return [a[: n_done + 1] for a in out], status
+
+
+def release_window_phases(gamma):
+    """``(theta_r, theta_e)`` of the window sin(theta) < -1/Gamma, from the closed form."""
+    a = math.asin(1.0 / gamma)
+    return math.pi + a, TWO_PI - a
+
+
+def stick_phase(gamma, where):
+    """A stick phase named ``where``: at theta_r, mid-window, 4 ulp before or after theta_e."""
+    theta_r, theta_e = release_window_phases(gamma)
+    return {
+        "theta_r": theta_r,
+        "middle": 0.5 * (theta_r + theta_e),
+        "just_before_theta_e": theta_e * (1 - 4 * EPS),
+        "theta_e": theta_e * (1 + 4 * EPS),
+    }[where]
+
+
+STICK_PHASES = ["theta_r", "middle", "just_before_theta_e", "theta_e"]
+
+
+def late_sticks(periods, phase, kind, gamma):
+    """Number of sticks inside the release window not followed at once by their release.
+
+    A stick at ``theta_r <= phase < theta_e`` (the floor falls faster than g) lasts zero
+    time: the next event must be a RELEASE at the same ``(periods, phase)``.
+    """
+    if gamma <= 1.0:
+        return 0
+    theta_r, theta_e = release_window_phases(gamma)
+    stick = (kind[:-1] == STICK) & (theta_r <= phase[:-1]) & (phase[:-1] < theta_e)
+    i = np.flatnonzero(stick)
+    ok = (kind[i + 1] == RELEASE) & (periods[i + 1] == periods[i]) & (phase[i + 1] == phase[i])
+    return int(np.count_nonzero(~ok))

@@ -4,6 +4,7 @@ import math
 
 import numpy as np
 import pytest
+from billiard_checks import STICK_PHASES, release_window_phases, stick_phase
 from scipy.optimize import brentq
 
 from bbdyn import Params
@@ -75,21 +76,24 @@ def test_impact_within_1e12_of_wedge(side):
     assert math.isclose(tau, T, rel_tol=1e-12)
 
 
-def test_wedge_rule_reflects_on_neighbour():
+@pytest.mark.parametrize("side", [1.0, -1.0], ids=["right-wedge", "left-wedge"])
+def test_wedge_rule_reflects_on_neighbour(side):
     """At the wedge, a velocity sent into the neighbouring arc is reflected there too.
 
     Incoming (100, -5) mm/s at the right wedge of tile 0: the arc of tile 0 turns it
     into (99, -3.5), which points into tile 1's arc; the final velocity is the
-    composition of both reflections and leaves both arcs.
+    composition of both reflections and leaves both arcs.  The left wedge is its
+    mirror image: (-100, -5) ends on tile -1 with the mirrored velocity.
     """
     kp = Params(f=85.2).kernel()
     half = kp.d / 2
-    out = collide(0.0, 1.0, 0.0, half * (1 - EPS), 100.0, -5.0, kp)
+    out = collide(0.0, 1.0, 0.0, side * half * (1 - EPS), side * 100.0, -5.0, kp)
     assert out[7] == OK and out[6] == IMPACT
     vx1, vy1, _, _ = bounce(half, 100.0, -5.0, kp)
     vx2, vy2, _, _ = bounce(-half, vx1, vy1, kp)
-    assert out[2] == 1.0 and out[3] == -half
-    assert math.isclose(out[4], vx2, rel_tol=1e-15) and math.isclose(out[5], vy2, rel_tol=1e-15)
+    assert out[2] == side and out[3] == -side * half
+    assert math.isclose(out[4], side * vx2, rel_tol=1e-15)
+    assert math.isclose(out[5], vy2, rel_tol=1e-15)
     assert vx2 * half + vy2 * kp.c0 > 0 and -vx2 * half + vy2 * kp.c0 > 0
     nxt = billiard_event(*out[:7], kp)
     assert nxt[7] == OK and nxt[0] * TWO_PI + nxt[1] > 1.0
@@ -109,19 +113,22 @@ def test_flight_over_1000_tiles_is_cheap():
     assert all(flight_gap(0.3, 0.1, vx, vy, tau * j / m, kp) > 0 for j in range(1, m))
 
 
-def test_chattering_on_a_slope_matches_incline_closed_form():
+@pytest.mark.parametrize("vt0", [0.0, 1.0, -1.0])
+def test_chattering_on_a_slope_matches_incline_closed_form(vt0):
     """Explicit tiny bounces + closed-form tail on the slope at xi = 0.5 (static floor).
 
-    On an incline of normal n with gravity g the sequence from V_n0 (V_t0 = 0) lasts
-    ``2 V_n0 / (g_n (1 - alpha))`` and drifts by ``g_t tau_0^2 [alpha beta /
-    ((1 - alpha^2)(1 - alpha beta)) + 1/(2 (1 - alpha^2))]`` along the tangent.  The arc
-    differs from the incline by relative O(ds / R) = O(1e-6), so the kernel's
-    event-by-event sequence must match to 1e-5.  Gamma = 0: then stuck forever.
+    On an incline of normal n with gravity g the sequence from (V_n0, V_t0) lasts
+    ``2 V_n0 / (g_n (1 - alpha))`` and drifts by ``V_t0 tau_0 / (1 - alpha beta) + g_t
+    tau_0^2 [alpha beta / ((1 - alpha^2)(1 - alpha beta)) + 1/(2 (1 - alpha^2))]`` along
+    the tangent.  The arc differs from the incline by relative O(ds / R) = O(1e-5) and by
+    the centrifugal V_t^2 / (g_n R) = O(1e-6), so the kernel's event-by-event sequence
+    must match the time to 1e-5 and the drift to 1e-4.  Gamma = 0: then stuck forever.
     """
     p, kp = STATIC, SKP
     xi0, vn0 = 0.5, 1.0
     S = math.sqrt(p.R**2 - xi0**2)
-    vx0, vy0 = vn0 * xi0 / p.R, vn0 * S / p.R
+    vx0 = (vn0 * xi0 + vt0 * S) / p.R
+    vy0 = (vn0 * S - vt0 * xi0) / p.R
     state = (0.0, 0.0, 0.0, xi0, vx0, vy0, IMPACT)
     n_impacts = 0
     while state[6] == IMPACT:
@@ -134,12 +141,41 @@ def test_chattering_on_a_slope_matches_incline_closed_form():
     a, b = p.alpha, p.beta
     tau0 = 2 * vn0 / g_n
     t_expected = tau0 / (1 - a)
-    ds = g_t * tau0**2 * (a * b / ((1 - a * a) * (1 - a * b)) + 0.5 / (1 - a * a))
+    ds = vt0 * tau0 / (1 - a * b)
+    ds += g_t * tau0**2 * (a * b / ((1 - a * a) * (1 - a * b)) + 0.5 / (1 - a * a))
     t_stick = (state[0] * TWO_PI + state[1]) / kp.w
     xi_expected = p.R * math.sin(math.asin(xi0 / p.R) + ds / p.R)
     assert math.isclose(t_stick, t_expected, rel_tol=1e-5)
     assert math.isclose(state[3] - xi0, xi_expected - xi0, rel_tol=1e-4)
     assert billiard_event(*state, kp)[7] == STUCK_FOREVER
+
+
+@pytest.mark.parametrize("alpha", [0.5, 0.0], ids=["chatter-sum", "alpha-0"])
+@pytest.mark.parametrize("ratio", [0.9, 1.1], ids=["below", "above"])
+@pytest.mark.parametrize("phase", [0.0, 1.0], ids=["static", "moving"])
+def test_fast_particle_at_a_bump_top_flies_off(phase, alpha, ratio):
+    """A grazing contact at the top (xi = 0) with tangential speed v_t: the floor holds the
+    particle only if the arc's centripetal acceleration v_t^2 / R is below the effective
+    gravity g_eff = g + A w^2 sin(phase) (effective normal gravity g_n = (g_eff R - v_t^2) /
+    R > 0).  Below the threshold the tiny bounces sum to a STICK; above it the particle
+    leaves the arc after the impact and flies for a finite time."""
+    p = (STATIC if phase == 0.0 else Params(f=85.2)).replace(alpha=alpha)
+    kp = p.kernel()
+    g_eff = p.g + p.A * p.w**2 * math.sin(phase)
+    vt_after = ratio * math.sqrt(g_eff * p.R)
+    vx = vt_after / p.beta  # the tangent at the top is (1, 0): vt = beta vx after
+    out = collide(0.0, phase, 0.0, 0.0, vx, -1e-6, kp)
+    assert out[7] == OK
+    if ratio < 1:
+        assert out[6] == STICK
+        return
+    assert out[6] == IMPACT and math.isclose(out[4], vt_after, rel_tol=1e-15)
+    nxt = billiard_event(*out[:7], kp)
+    assert nxt[7] == OK
+    tau = ((nxt[0] - out[0]) * TWO_PI + nxt[1] - out[1]) / kp.w
+    # it leaves: the parabola's curvature g_eff / v_t^2 is below the arc's 1 / R
+    assert tau > 1e-3 / p.f
+    assert all(flight_gap(out[1], 0.0, out[4], out[5], tau * j / 50, kp) > 0 for j in range(1, 50))
 
 
 def test_release_phase():
@@ -185,12 +221,6 @@ def test_start_on_a_wedge_must_leave_both_arcs(s_at):
     assert nxt[7] in (OK, STUCK_FOREVER)
 
 
-def _window(gamma):
-    """Release window (theta_r, theta_e) of sin(theta) < -1/Gamma, from its closed form."""
-    a = math.asin(1.0 / gamma)
-    return math.pi + a, TWO_PI - a
-
-
 def test_wedge_collapse_inside_release_window_leaves_at_once():
     """Issue 10: a wedge collapse (R = 1.01 mm, d = 2 mm) at phase 4.333, inside the release
     window (3.97, 5.45) where the floor falls faster than g, is a stick of zero duration: the
@@ -199,7 +229,7 @@ def test_wedge_collapse_inside_release_window_leaves_at_once():
     of particle and floor, is positive before the contact, after theta_e, and zero there."""
     params = Params(f=58.0, R=1.01)
     kp = params.kernel()
-    theta_r, theta_e = _window(params.gamma)
+    theta_r, theta_e = release_window_phases(params.gamma)
     traj = simulate(
         params, n_events=5000, s0=1.7775522733060598, vx0=-9.305795659049323, vy0=39.89118749577923
     )
@@ -226,18 +256,13 @@ def test_wedge_collapse_inside_release_window_leaves_at_once():
     assert all(gap(tau * j / 200) > 0 for j in range(1, 200))
 
 
-@pytest.mark.parametrize("where", ["theta_r", "middle", "just_before_theta_e", "theta_e"])
+@pytest.mark.parametrize("where", STICK_PHASES)
 def test_stick_release_time(where):
     """A stick at theta in [theta_r, theta_e) releases at once; before theta_r it waits for
     theta_r of its period, from theta_e on for theta_r of the next."""
     kp = Params(f=85.2).kernel()
-    theta_r, theta_e = _window(kp.gamma)
-    theta = {
-        "theta_r": theta_r,
-        "middle": 0.5 * (theta_r + theta_e),
-        "just_before_theta_e": theta_e * (1 - 4 * EPS),
-        "theta_e": theta_e * (1 + 4 * EPS),
-    }[where]
+    theta_r, theta_e = release_window_phases(kp.gamma)
+    theta = stick_phase(kp.gamma, where)
     ev = billiard_event(5.0, theta, 2.0, 0.25, 0.0, 0.0, STICK, kp)
     assert ev[6] == RELEASE and ev[7] == OK and ev[2:6] == (2.0, 0.25, 0.0, 0.0)
     if where == "theta_e":
@@ -246,3 +271,24 @@ def test_stick_release_time(where):
         assert (ev[0], ev[1]) == (5.0, theta)
         nxt = billiard_event(*ev[:7], kp)  # the flight from the release is valid
         assert nxt[7] == OK and (nxt[0] - 5.0) * TWO_PI + nxt[1] > theta_e
+
+
+@pytest.mark.parametrize("f", [30.0, 33.0], ids=["gamma-0.91", "gamma-1.10"])
+def test_zeno_collapse_into_a_wedge(f):
+    """Found by the explored property test: alpha = 1, beta = 0 in a 60-degree wedge (R = d)
+    loses the tangential velocity at each bounce, so the bounces between the two walls shrink
+    geometrically and accumulate (Zeno).  The particle collapses into the wedge: once a
+    bounce lands within the rounding of the time the run records a STICK on the wedge (it
+    used to repeat zero-time events until the gap underflowed and the state went bad)."""
+    params = Params(f=f, A=0.25, alpha=1.0, beta=0.0, R=1.0, d=1.0)
+    traj = simulate(params, n_events=2000, s0=0.0, vx0=0.0, vy0=1.0)
+    kind, xi = traj["kind"], traj["xi"]
+    stick = np.flatnonzero(kind == STICK)
+    assert stick.size >= 1 and np.all(np.abs(xi[stick]) == params.d / 2)
+    t = traj["periods"] * TWO_PI + traj["phase"]
+    assert np.all(np.diff(t) >= 0.0)
+    if params.gamma < 1:
+        assert traj.meta["status"].startswith("stuck on the floor for good")
+    else:
+        assert traj.meta["status"] == "ok" and len(kind) == 2001
+        assert np.count_nonzero(kind == RELEASE) >= 1

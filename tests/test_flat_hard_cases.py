@@ -5,6 +5,7 @@ import math
 import mpmath
 import numpy as np
 import pytest
+from billiard_checks import STICK_PHASES, release_window_phases, stick_phase
 
 from bbdyn import Params
 from bbdyn.core.flat import flat_event, flat_flight, flat_run
@@ -164,20 +165,14 @@ def test_release_exactly_at_theta_r(f):
     assert np.all(traj["kind"][idx - 1] == STICK)
 
 
-@pytest.mark.parametrize("where", ["theta_r", "middle", "just_before_theta_e", "theta_e"])
+@pytest.mark.parametrize("where", STICK_PHASES)
 def test_stuck_start_releases_at_once_inside_the_window(where):
     """Issue 10: a particle resting on the plate while sin(w t) < -1/Gamma (theta_r <= theta <
     theta_e, the plate falls faster than g) leaves at once, with the plate's velocity; from
     theta_e on the plate holds it until theta_r of the next period."""
     p = Params(f=58.0)
-    a = math.asin(1 / p.gamma)
-    theta_r, theta_e = math.pi + a, 2 * math.pi - a
-    theta = {
-        "theta_r": theta_r,
-        "middle": 0.5 * (theta_r + theta_e),
-        "just_before_theta_e": theta_e * (1 - 4 * EPS),
-        "theta_e": theta_e * (1 + 4 * EPS),
-    }[where]
+    theta_r, theta_e = release_window_phases(p.gamma)
+    theta = stick_phase(p.gamma, where)
     traj = simulate_flat(p, n_events=3, phase0=theta, stuck=True)
     assert traj["kind"][1] == RELEASE and traj["vrel"][1] == 0.0
     if where == "theta_e":

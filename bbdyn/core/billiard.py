@@ -338,23 +338,43 @@ def snap_to_wedge(xi, kp):
     return xi
 
 
+@njit(cache=True, inline="always")
+def lands_at_once(periods, phase, vyrel, g_eff, kp):
+    """True if a flight leaving a wedge lands again within the rounding of the time.
+
+    From the wedge (the lowest point around it) a particle with vertical
+    velocity ``vyrel`` (mm/s) relative to the floor, in the effective gravity
+    ``g_eff > 0`` (mm/s^2), is back on the floor within ``2 vyrel / g_eff``.
+    If that does not change ``(periods, phase)``, every later bounce in the
+    wedge happens at the same instant too (a floor at rest for that instant
+    adds no energy): the particle has collapsed into the wedge, like after
+    ``WEDGE_MAX_REFLECTIONS`` (an event-by-event run would repeat zero-time
+    events until the gap underflows).
+    """
+    if not g_eff > 0.0:
+        return False
+    p1, ph1 = advance_phase(periods, phase, kp.w * 2.0 * max(vyrel, 0.0) / g_eff)
+    return p1 == periods and ph1 == phase
+
+
 @njit(cache=True)
 def collide(periods, phase, tile, xi, vx, vyrel, kp):
     """Apply the collision at ``(tile, xi)`` and decide whether chattering ends in a stick.
 
     A contact within ``WEDGE_TOL * d`` of a wedge is put on the wedge and
-    treated by ``wedge_reflect``.  Returns the event state
+    treated by ``wedge_reflect``; a collapse into the wedge (``wedge_reflect``
+    gives up, or ``lands_at_once``) is a STICK there.  Returns the event state
     ``(periods, phase, tile, xi, vx, vyrel, kind, status)``.
     """
     half = 0.5 * kp.d
     xi = snap_to_wedge(xi, kp)
     vx, vyrel, vn, vt = bounce(xi, vx, vyrel, kp)
     tile, xi, vx, vyrel, vn, vt, ok = wedge_reflect(tile, xi, vx, vyrel, vn, vt, kp)
-    if not ok:
+    g_eff = kp.g + kp.A * kp.w * kp.w * math.sin(phase)
+    if not ok or (abs(xi) == half and lands_at_once(periods, phase, vyrel, g_eff, kp)):
         return periods, phase, tile, xi, 0.0, 0.0, STICK, OK
     if not (math.isfinite(vx) and math.isfinite(vyrel)):
         return periods, phase, tile, xi, vx, vyrel, IMPACT, NON_FINITE
-    g_eff = kp.g + kp.A * kp.w * kp.w * math.sin(phase)
     if g_eff > 0.0 and kp.beta < 1.0:
         S = arc_root(xi, kp)
         g_n = (g_eff * S - vt * vt) / kp.R
