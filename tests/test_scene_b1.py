@@ -10,7 +10,7 @@ TINY = {"f_min": 49.0, "f_max": 85.2, "n_f": 2, "n": 12, "t": 4.0, "workers": 1,
 def test_regime_map_on_a_tiny_scan(tmp_path, monkeypatch):
     module = scene_module("B1")
     monkeypatch.setattr(module, "QUICK", TINY)
-    result, png = run_scene("B1", quick=True, out_dir=tmp_path, seed=1)
+    result, png = run_scene("B1", setting="quick", out_dir=tmp_path, seed=1)
     f = result["f"]
     np.testing.assert_allclose(f, [49.0, 85.2])
     # basin fractions of the attractors plus the unsettled fraction cover the ensemble

@@ -16,7 +16,7 @@ SCENE_IDS = ["S2", "S6", "S7", "S8"]
 @pytest.fixture(scope="module")
 def scenes(tmp_path_factory):
     out = tmp_path_factory.mktemp("scenes")
-    return out, {sid: run_scene(sid, quick=True, out_dir=out, seed=0) for sid in SCENE_IDS}
+    return out, {sid: run_scene(sid, setting="quick", out_dir=out, seed=0) for sid in SCENE_IDS}
 
 
 @pytest.mark.parametrize("sid", SCENE_IDS)

@@ -268,7 +268,7 @@ def test_scene_s1_quick_saves_numbers_and_redraws(tmp_path):
     from bbdyn.scenes import redraw_scene, run_scene
     from bbdyn.scenes.s1_tongues import SceneS1Result
 
-    result, png = run_scene("S1", quick=True, out_dir=tmp_path)
+    result, png = run_scene("S1", setting="quick", out_dir=tmp_path)
     assert png.exists() and result.kind == "scene_s1"
     assert result.meta["max_rel_dev_hi"] <= EDGE_AGREE_REL
     assert result.meta["max_rel_dev_lo"] <= EDGE_AGREE_REL

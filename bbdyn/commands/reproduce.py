@@ -1,22 +1,56 @@
-"""``bbdyn reproduce [--quick|--full] [--out DIR]``: every scene, with an index page."""
+"""``bbdyn reproduce [--quick|--medium|--full] [--out DIR] [--only ID ...]`` and
+``bbdyn reproduce --docs [--only ID ...]``: scenes with an index page, or the figures of docs/."""
 
 HELP = "run every available scene and write figures, their data and an index page to a folder"
 
 
 def add_arguments(parser) -> None:
     mode = parser.add_mutually_exclusive_group()
-    mode.add_argument("--quick", action="store_true", default=True, help="quick settings (default)")
-    mode.add_argument("--full", action="store_true", help="full (reference paper) settings")
-    parser.add_argument("--out", default="out", help="output folder (default: out)")
+    mode.add_argument(
+        "--quick",
+        dest="setting",
+        action="store_const",
+        const="quick",
+        help="quick settings (default)",
+    )
+    mode.add_argument(
+        "--medium",
+        dest="setting",
+        action="store_const",
+        const="medium",
+        help="medium settings (only scenes that have one)",
+    )
+    mode.add_argument(
+        "--full",
+        dest="setting",
+        action="store_const",
+        const="full",
+        help="full (reference paper) settings",
+    )
+    mode.add_argument(
+        "--docs",
+        action="store_true",
+        help="make the figures of docs/figures, each at its documented setting, and "
+        "rewrite the figure table of docs/results.md (resumable)",
+    )
+    parser.set_defaults(setting="quick")
+    parser.add_argument(
+        "--out", default="out", help="output folder (default: out; not with --docs)"
+    )
     parser.add_argument("--seed", type=int, default=0, help="random seed (default: 0)")
-    parser.add_argument("--only", nargs="*", metavar="ID", help="only these scene ids")
+    parser.add_argument(
+        "--only", nargs="*", metavar="ID", help="only these scene ids (at least one)"
+    )
 
 
 def run(args) -> int:
-    from bbdyn.reproduce import reproduce
+    from bbdyn.reproduce import reproduce, reproduce_docs
 
-    index = reproduce(
-        out_dir=args.out, quick=not args.full, seed=args.seed, only=args.only, progress=print
-    )
-    print(f"index: {index}")
+    if args.docs:
+        page = reproduce_docs(only=args.only, seed=args.seed, progress=print)
+    else:
+        page = reproduce(
+            out_dir=args.out, setting=args.setting, seed=args.seed, only=args.only, progress=print
+        )
+    print(f"index: {page}")
     return 0

@@ -3,21 +3,26 @@
 Each scene module defines
 
 * ``TITLE``: one line;
-* ``QUICK`` and ``FULL``: dicts of settings (quick: seconds to a minute on 2 cores);
+* ``QUICK`` and ``FULL`` (and optionally ``MEDIUM``): dicts of settings (quick: seconds
+  to a minute on 2 cores); ``SETTINGS`` names them;
 * ``compute(settings, seed[, out_dir]) -> Result``: computes only what the figure needs
   (scenes built on frequency scans take ``out_dir`` and keep their scan there);
 * ``draw(result, ax=None)``: draws a saved or fresh result, returns the figure.
 
-``run_scene`` computes, saves the numbers (``<id>.npz`` / ``<id>.json``, with
-parameters, seed, version and run time) and the figure (``<id>.png``) side by
-side, so a figure can be redrawn from its data with ``redraw_scene``.
+``run_scene`` computes, saves the numbers (``<name>.npz`` / ``<name>.json``) and the
+figure (``<name>.png``) side by side, so a figure can be redrawn from its data with
+``redraw_scene``.  Both record the provenance (``provenance``: bbdyn version, git commit
+and dirty files of the source tree, scene, setting and its values, seed, run time) in
+the JSON (``meta["provenance"]``) and in the PNG's text metadata (``read_png_provenance``).
 """
 
 from __future__ import annotations
 
+import datetime as _dt
 import importlib
 import inspect
 import json
+import subprocess
 import time
 from pathlib import Path
 
@@ -34,7 +39,14 @@ SCENES = {
     "S5": "s5_horizontal_energy",
     "S9": "s9_random_walk",
     "S10": "s10_green_kubo",
+    "B3": "b3_statcost",
 }
+#: setting name -> attribute of a scene module holding its values
+SETTINGS = {"quick": "QUICK", "medium": "MEDIUM", "full": "FULL"}
+#: key of the PNG text chunk holding the provenance as JSON
+PNG_KEY = "bbdyn-provenance"
+#: folder holding the ``bbdyn`` package: a git checkout's top level when installed editable
+SOURCE_ROOT = Path(__file__).resolve().parents[2]
 
 
 def figure_axes(ax=None, **subplots_kwargs):
@@ -51,59 +63,152 @@ def scene_module(scene_id: str):
     """The module of scene ``scene_id`` (case-insensitive), or ValueError listing the known ids."""
     key = scene_id.upper()
     if key not in SCENES:
-        raise ValueError(f"unknown scene {scene_id!r}; known: {', '.join(SCENES)}")
+        raise ValueError(f"unknown scene {scene_id!r}; known scene ids: {', '.join(SCENES)}")
     return importlib.import_module(f"bbdyn.scenes.{SCENES[key]}")
 
 
-def run_scene(scene_id: str, *, quick: bool = True, out_dir: str | Path = "out", seed: int = 0):
-    """Compute scene ``scene_id``, save its numbers and figure in ``out_dir``.
+def scene_settings(scene_id: str, setting: str) -> dict:
+    """A copy of the values of ``setting`` (``quick``, ``medium`` or ``full``) of a scene;
+    ValueError naming the settings the scene has."""
+    module = scene_module(scene_id)
+    have = [name for name, attr in SETTINGS.items() if hasattr(module, attr)]
+    if setting not in have:
+        raise ValueError(
+            f"scene {scene_id.upper()} has no setting {setting!r}; it has: {', '.join(have)}"
+        )
+    return dict(getattr(module, SETTINGS[setting]))
 
-    Returns ``(result, png_path)``.
+
+def _git(root: Path, *args: str) -> str:
+    out = subprocess.run(
+        ["git", "-C", str(root), *args], capture_output=True, text=True, check=True, timeout=30
+    )
+    return out.stdout.rstrip("\n")
+
+
+def source_state(root: str | Path = SOURCE_ROOT) -> dict:
+    """Git state of the source tree at ``root`` (the folder holding ``bbdyn/``).
+
+    Returns ``commit`` (the checked-out commit, or None when ``root`` is not the top
+    of a git checkout or git is missing), ``dirty`` (tracked files under ``bbdyn/``
+    differ from the commit; None without a commit) and ``dirty_files`` (their
+    ``git status --porcelain`` lines).
+    """
+    root = Path(root).resolve()
+    try:
+        if Path(_git(root, "rev-parse", "--show-toplevel")).resolve() != root:
+            raise ValueError("not the top of a checkout")
+        commit = _git(root, "rev-parse", "HEAD")
+        status = _git(root, "status", "--porcelain", "--untracked-files=no", "--", "bbdyn")
+    except (OSError, ValueError, subprocess.SubprocessError):
+        return {"commit": None, "dirty": None, "dirty_files": []}
+    files = status.splitlines()
+    return {"commit": commit, "dirty": bool(files), "dirty_files": files}
+
+
+def provenance(
+    scene_id: str, setting: str, settings: dict, seed: int, run_s: float, source: dict
+) -> dict:
+    """Where a scene output came from: bbdyn version, ``source`` (``source_state``),
+    scene id, setting name and values, seed, run time ``run_s`` (s wall) and the UTC time."""
+    from bbdyn import __version__
+
+    return {
+        "bbdyn_version": __version__,
+        **source,
+        "scene": scene_id.upper(),
+        "setting": setting,
+        "settings": settings,
+        "seed": seed,
+        "run_s": float(run_s),
+        "created_utc": _dt.datetime.now(_dt.UTC).isoformat(timespec="seconds"),
+    }
+
+
+def save_figure(fig, png: str | Path, prov: dict) -> Path:
+    """Save ``fig`` as ``png`` (150 dpi) with ``prov`` as JSON in its text metadata; close it."""
+    import matplotlib.pyplot as plt
+
+    from bbdyn import __version__
+
+    png = Path(png)
+    png.parent.mkdir(parents=True, exist_ok=True)
+    meta = {"Software": f"bbdyn {__version__}", PNG_KEY: json.dumps(prov)}
+    fig.savefig(png, dpi=150, bbox_inches="tight", metadata=meta)
+    plt.close(fig)
+    return png
+
+
+def read_png_provenance(png: str | Path) -> dict:
+    """The provenance saved in a PNG by ``save_figure``; ValueError if it has none."""
+    from PIL import Image
+
+    with Image.open(png) as image:
+        text = image.text.get(PNG_KEY)
+    if text is None:
+        raise ValueError(f"{png} records no bbdyn provenance (no {PNG_KEY!r} text chunk)")
+    return json.loads(text)
+
+
+def run_scene(
+    scene_id: str,
+    *,
+    setting: str = "quick",
+    out_dir: str | Path = "out",
+    seed: int = 0,
+    name: str | None = None,
+    scan_root: str | Path | None = None,
+):
+    """Compute scene ``scene_id`` at ``setting``, save its numbers and figure in ``out_dir``.
+
+    Files are ``<name>.npz/.json/.png`` (``name`` defaults to the scene id).  Scenes built
+    on scans keep them under ``scan_root`` (default ``out_dir``), so an interrupted run
+    resumes.  Returns ``(result, png_path)``.
     """
     import matplotlib
 
     matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
 
     module = scene_module(scene_id)
-    settings = dict(module.QUICK if quick else module.FULL)
+    settings = scene_settings(scene_id, setting)
     out_dir = Path(out_dir)
+    source = source_state()  # the code as it is when the run starts
     start = time.perf_counter()
     if "out_dir" in inspect.signature(module.compute).parameters:
-        # scenes built on scans keep them under out_dir, so an interrupted run resumes
-        result = module.compute(settings, seed, out_dir=out_dir)
+        result = module.compute(settings, seed, out_dir=out_dir if scan_root is None else scan_root)
     else:
         result = module.compute(settings, seed)
+    run_s = time.perf_counter() - start
+    prov = provenance(scene_id, setting, settings, seed, run_s, source)
     result.meta.update(
-        scene=scene_id.upper(),
-        setting="quick" if quick else "full",
+        scene=prov["scene"],
+        setting=setting,
         settings=settings,
         seed=seed,
-        scene_wall_s=time.perf_counter() - start,
+        scene_wall_s=run_s,
+        provenance=prov,
     )
-    result.save(out_dir / scene_id.upper())
-    fig = module.draw(result)
-    png = out_dir / f"{scene_id.upper()}.png"
-    fig.savefig(png, dpi=150, bbox_inches="tight")
-    plt.close(fig)
-    return result, png
+    stem = out_dir / (name or prov["scene"])
+    result.save(stem)
+    return result, save_figure(module.draw(result), stem.with_name(stem.name + ".png"), prov)
 
 
 def redraw_scene(json_path: str | Path) -> Path:
-    """Redraw a saved scene from its numbers, without recomputing; returns the PNG path."""
+    """Redraw a saved scene from its numbers, without recomputing; returns the PNG path.
+
+    The PNG records the provenance saved with the numbers (data saved before provenance
+    was recorded give ``{"provenance": None}``)."""
     import matplotlib
 
     matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
 
     from bbdyn.results import load_result, result_paths
 
     _, json_path = result_paths(json_path)
     with open(json_path) as fh:
-        scene_id = json.load(fh)["meta"]["scene"]
-    module = scene_module(scene_id)  # registers the scene's result class before loading
+        meta = json.load(fh)["meta"]
+    module = scene_module(meta["scene"])  # registers the scene's result class before loading
     fig = module.draw(load_result(json_path))
-    png = json_path.with_suffix(".png")
-    fig.savefig(png, dpi=150, bbox_inches="tight")
-    plt.close(fig)
-    return png
+    return save_figure(
+        fig, json_path.with_suffix(".png"), meta.get("provenance", {"provenance": None})
+    )

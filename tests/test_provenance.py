@@ -1,0 +1,230 @@
+"""Provenance of scene outputs, the index and docs pages generated from it, reproduce --only."""
+
+import json
+import re
+import subprocess
+import time
+from pathlib import Path
+
+import pytest
+
+from bbdyn import __version__
+from bbdyn.cli import main
+from bbdyn.reproduce import (
+    DOCS_FIGURES,
+    PRE_PROVENANCE,
+    TABLE_BEGIN,
+    TABLE_END,
+    docs_command,
+    docs_table,
+    figure_records,
+    reproduce,
+    reproduce_docs,
+)
+from bbdyn.scenes import (
+    SCENES,
+    SOURCE_ROOT,
+    read_png_provenance,
+    redraw_scene,
+    run_scene,
+    scene_settings,
+    source_state,
+)
+
+DOCS = Path(__file__).resolve().parents[1] / "docs"
+
+
+def git(root, *args):
+    return subprocess.run(["git", "-C", str(root), *args], check=True, capture_output=True,
+                          text=True).stdout.strip()  # fmt: skip
+
+
+@pytest.fixture
+def repo(tmp_path):
+    """A git checkout with bbdyn/a.py and notes.txt committed."""
+    git(tmp_path, "init", "-q")
+    git(tmp_path, "config", "user.email", "t@example.org")
+    git(tmp_path, "config", "user.name", "t")
+    (tmp_path / "bbdyn").mkdir()
+    (tmp_path / "bbdyn" / "a.py").write_text("x = 1\n")
+    (tmp_path / "notes.txt").write_text("n\n")
+    git(tmp_path, "add", "bbdyn/a.py", "notes.txt")
+    git(tmp_path, "commit", "-q", "-m", "one")
+    return tmp_path
+
+
+def test_source_state_names_the_commit_and_only_tracked_changes_under_bbdyn(repo):
+    first = source_state(repo)
+    assert first == {"commit": git(repo, "rev-parse", "HEAD"), "dirty": False, "dirty_files": []}
+    assert re.fullmatch(r"[0-9a-f]{40}", first["commit"])
+    (repo / "notes.txt").write_text("changed\n")  # outside bbdyn/: not the code
+    (repo / "bbdyn" / "new.py").write_text("y = 2\n")  # untracked: not in the commit's code
+    assert source_state(repo)["dirty"] is False
+    (repo / "bbdyn" / "a.py").write_text("x = 2\n")
+    state = source_state(repo)
+    assert state["commit"] == first["commit"] and state["dirty"] is True
+    assert state["dirty_files"] == [" M bbdyn/a.py"]
+    git(repo, "commit", "-q", "-am", "two")
+    second = source_state(repo)
+    assert second["commit"] != first["commit"] and second["dirty"] is False
+
+
+def test_source_state_outside_a_checkout_or_below_its_top(repo, tmp_path_factory):
+    none = {"commit": None, "dirty": None, "dirty_files": []}
+    assert source_state(tmp_path_factory.mktemp("plain")) == none
+    assert source_state(repo / "bbdyn") == none  # bbdyn/ must sit at the top of the checkout
+
+
+def test_saved_scene_records_provenance_in_json_and_png(tmp_path):
+    before = time.perf_counter()
+    result, png = run_scene("S2", setting="quick", out_dir=tmp_path, seed=3, name="fig")
+    elapsed = time.perf_counter() - before
+    saved = json.loads((tmp_path / "fig.json").read_text())["meta"]["provenance"]
+    assert read_png_provenance(png) == saved == result.meta["provenance"]
+    assert saved["bbdyn_version"] == __version__
+    assert saved["scene"] == "S2" and saved["setting"] == "quick" and saved["seed"] == 3
+    assert saved["settings"] == scene_settings("S2", "quick")
+    assert 0 < saved["run_s"] <= elapsed
+    state = source_state(SOURCE_ROOT)
+    assert {k: saved[k] for k in state} == state
+    # a redraw from the data carries the data's provenance, not a new one
+    png.unlink()
+    assert read_png_provenance(redraw_scene(tmp_path / "fig.json")) == saved
+
+
+def test_png_without_provenance_is_refused(tmp_path):
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, _ = plt.subplots()
+    fig.savefig(tmp_path / "plain.png")
+    plt.close(fig)
+    with pytest.raises(ValueError, match="records no bbdyn provenance"):
+        read_png_provenance(tmp_path / "plain.png")
+
+
+def test_scene_without_the_setting_names_those_it_has():
+    with pytest.raises(ValueError, match=r"S6 has no setting 'medium'; it has: quick, full"):
+        scene_settings("S6", "medium")
+
+
+@pytest.fixture
+def no_runs(monkeypatch):
+    def refuse(*args, **kwargs):
+        raise AssertionError("no scene may run")
+
+    monkeypatch.setattr("bbdyn.reproduce.run_scene", refuse)
+
+
+def test_reproduce_only_without_ids_is_refused(no_runs, tmp_path, capsys):
+    with pytest.raises(ValueError, match="--only needs at least one scene id"):
+        reproduce(tmp_path, only=[])
+    with pytest.raises(SystemExit) as exc:
+        main(["reproduce", "--only", "--out", str(tmp_path)])
+    assert exc.value.code == 2
+    err = capsys.readouterr().err
+    assert "at least one scene id" in err and ", ".join(SCENES) in err
+
+
+def test_unknown_ids_are_refused_with_the_known_ones(no_runs, tmp_path, capsys):
+    with pytest.raises(ValueError, match="unknown scene id"):
+        reproduce(tmp_path, only=["S2", "S99"])
+    for argv in (["scene", "S99", "--out", str(tmp_path)], ["reproduce", "--docs", "--only", "X"]):
+        with pytest.raises(SystemExit) as exc:
+            main(argv)
+        assert exc.value.code == 2
+        err = capsys.readouterr().err
+        known = SCENES if argv[0] == "scene" else DOCS_FIGURES
+        assert all(sid in err for sid in known), err
+
+
+def test_reproduce_only_keeps_the_index_entries_of_other_scenes(tmp_path):
+    reproduce(tmp_path, only=["S2"])
+    index = reproduce(tmp_path, only=["S1"]).read_text()
+    assert "## S1:" in index and "## S2:" in index
+    assert [r["name"] for r in figure_records(tmp_path)] == ["S1", "S2"]  # SCENES order
+
+
+def write_pre_provenance(folder, name, commit):
+    record = {"scene": "S3", "setting": "full", "settings": "227 f x 1000 x 200 s", "seed": 0,
+              "commit": commit, "dirty": None, "run": "44 min", "key_numbers": {}}  # fmt: skip
+    sidecar = {"kind": PRE_PROVENANCE, "provenance": "pre-provenance, note", "record": record}
+    (folder / f"{name}.json").write_text(json.dumps(sidecar))
+
+
+def test_reproduce_docs_writes_figures_and_the_table_from_their_json(tmp_path):
+    figures = tmp_path / "docs" / "figures"
+    figures.mkdir(parents=True)
+    write_pre_provenance(figures, "S3_full", "0123456789abcdef0123456789abcdef01234567")
+    page = tmp_path / "docs" / "results.md"
+    page.write_text(f"# head\n\n{TABLE_BEGIN}\nold table\n{TABLE_END}\n\ntail text\n")
+    assert reproduce_docs(only=["s2"], root=tmp_path) == page
+    setting, name = DOCS_FIGURES["S2"]
+    saved = read_png_provenance(figures / f"{name}.png")
+    assert saved["setting"] == setting
+    text = page.read_text()
+    assert text == f"# head\n\n{TABLE_BEGIN}\n{docs_table(figures)}\n{TABLE_END}\n\ntail text\n"
+    s2_row, s3_row = docs_table(figures).splitlines()[2:]
+    assert f"`{docs_command('S2')}`" in s2_row and "an earlier commit" not in s2_row
+    commit = saved["commit"][:7] if saved["commit"] else "not a git checkout"
+    assert f"| {commit}" in s2_row and f"{saved['run_s']:.1f} s" in s2_row
+    assert f"an earlier commit, 0123456 (pre-provenance, note); to be regenerated by " \
+           f"`{docs_command('S3')}`" in s3_row  # fmt: skip
+
+
+def test_reproduce_docs_needs_the_table_markers(tmp_path):
+    (tmp_path / "docs" / "figures").mkdir(parents=True)
+    (tmp_path / "docs" / "results.md").write_text("no markers\n")
+    with pytest.raises(ValueError, match="lacks the lines"):
+        reproduce_docs(only=["S2"], root=tmp_path)
+
+
+def test_docs_figures_record_where_they_came_from():
+    """Every figure of docs/figures has its JSON; a regenerated one carries the same
+    provenance in its PNG, from a clean tree at a commit of this history; a pre-provenance
+    one names the commit that added it; the table in results.md is the generated one."""
+    figures = DOCS / "figures"
+    if git(SOURCE_ROOT, "rev-parse", "--show-toplevel") != str(SOURCE_ROOT):
+        pytest.skip("not a git checkout")
+    records = {r["name"]: r for r in figure_records(figures)}
+    assert sorted(records) == sorted(p.stem for p in figures.glob("*.png"))
+    assert sorted(records) == sorted(name for _, name in DOCS_FIGURES.values())
+    for name, r in records.items():
+        assert DOCS_FIGURES[r["scene"]] == (r["setting"], name)
+    for name, r in records.items():
+        if r["pre"] is None:
+            saved = json.loads((figures / f"{name}.json").read_text())["meta"]["provenance"]
+            assert read_png_provenance(figures / f"{name}.png") == saved
+            assert r["dirty"] is False, name
+            git(SOURCE_ROOT, "merge-base", "--is-ancestor", r["commit"], "HEAD")
+        else:
+            added = git(SOURCE_ROOT, "log", "--diff-filter=A", "--format=%H", "--",
+                        f"docs/figures/{name}.png")  # fmt: skip
+            assert added.splitlines()[-1] == r["commit"], name
+    text = (DOCS / "results.md").read_text()
+    assert f"{TABLE_BEGIN}\n{docs_table(figures)}\n{TABLE_END}" in text
+
+
+def _claims():
+    """(argv, stated E / (A^2 w^2/2), trapped) from the energy sentences of docs/results.md."""
+    text = (DOCS / "results.md").read_text()
+    found = re.findall(r"`bbdyn simulate (--f \S+ --n \d+ --t \S+)`[^.]*?E = ([\d.]+) x "
+                       r"A\^2 w\^2/2[^.]*?\((trapped|moving)", text)  # fmt: skip
+    assert len(found) == 2, found
+    return [(args.split(), float(ratio), kind == "trapped") for args, ratio, kind in found]
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("argv, ratio, trapped", _claims())
+def test_energy_claims_in_results_md(argv, ratio, trapped, capsys):
+    assert main(["simulate", *argv, "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert round(out["E"] / out["E_reference"], 2) == ratio
+    assert (abs(out["D"]) < 2 * out["D_se"]) == trapped
+
+
+@pytest.mark.parametrize("scene_id", DOCS_FIGURES)
+def test_every_docs_figure_has_its_setting(scene_id):
+    assert scene_settings(scene_id, DOCS_FIGURES[scene_id][0])
