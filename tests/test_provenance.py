@@ -228,3 +228,9 @@ def test_energy_claims_in_results_md(argv, ratio, trapped, capsys):
 @pytest.mark.parametrize("scene_id", DOCS_FIGURES)
 def test_every_docs_figure_has_its_setting(scene_id):
     assert scene_settings(scene_id, DOCS_FIGURES[scene_id][0])
+
+
+def test_reproduce_docs_refuses_an_output_folder(no_runs, capsys):
+    with pytest.raises(SystemExit) as exc:
+        main(["reproduce", "--docs", "--out", "elsewhere"])
+    assert exc.value.code == 2 and "cannot be used with --docs" in capsys.readouterr().err

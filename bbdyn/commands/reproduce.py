@@ -35,7 +35,7 @@ def add_arguments(parser) -> None:
     )
     parser.set_defaults(setting="quick")
     parser.add_argument(
-        "--out", default="out", help="output folder (default: out; not with --docs)"
+        "--out", help="output folder (default: out; not with --docs, which writes docs/figures)"
     )
     parser.add_argument("--seed", type=int, default=0, help="random seed (default: 0)")
     parser.add_argument(
@@ -47,10 +47,19 @@ def run(args) -> int:
     from bbdyn.reproduce import reproduce, reproduce_docs
 
     if args.docs:
+        if args.out is not None:
+            raise ValueError(
+                f"--out {args.out} cannot be used with --docs, which writes into "
+                "docs/figures of the source checkout; leave out --out or --docs"
+            )
         page = reproduce_docs(only=args.only, seed=args.seed, progress=print)
     else:
         page = reproduce(
-            out_dir=args.out, setting=args.setting, seed=args.seed, only=args.only, progress=print
+            out_dir=args.out or "out",
+            setting=args.setting,
+            seed=args.seed,
+            only=args.only,
+            progress=print,
         )
     print(f"index: {page}")
     return 0
