@@ -25,11 +25,15 @@ import numpy as np
 from bbdyn.billiard import check_params
 from bbdyn.ensemble import (
     Box,
+    allocate,
+    check_n,
+    check_run,
+    failed_particles,
     initial_conditions,
     kernel_states,
     numba_threads,
-    raise_for_particles,
     reference_box,
+    run_chunked,
 )
 from bbdyn.params import Params
 from bbdyn.results import Result, make_meta
@@ -149,8 +153,7 @@ def _states_from(params, boxes, n, seed, initial, start_phase):
             raise ValueError(f"initial must be a finite (n, 3) array, got shape {ics.shape}")
         box_index = np.full(ics.shape[0], -1)
     else:
-        if int(n) != n or n < 1:
-            raise ValueError(f"n must be a positive integer, got {n}")
+        n = check_n(n)
         boxes = [reference_box(params)] if boxes is None else list(boxes)
         if not boxes or not all(isinstance(b, Box) for b in boxes):
             raise ValueError(f"boxes must be a non-empty list of Box, got {boxes!r}")
@@ -220,44 +223,49 @@ def trajectory_features(
 
     check_params(params)
     th = Thresholds() if thresholds is None else thresholds
-    t = float(t)
-    if not (math.isfinite(t) and t > 0):
-        raise ValueError(f"t must be a finite time > 0 s, got {t}")
     if not 0.0 <= start_phase < 2 * math.pi:
         raise ValueError(f"start_phase must be in [0, 2 pi), got {start_phase}")
-    transient = t / 2 if transient is None else float(transient)
-    if not 0.0 <= transient < t:
-        raise ValueError(f"transient must be in [0, t = {t}) s, got {transient}")
     if int(blocks) != blocks or blocks < 4:
         raise ValueError(f"blocks must be an integer >= 4, got {blocks}")
-    p0 = float(math.ceil(transient * params.f))
-    L = float(math.floor((math.floor(t * params.f) - p0) / blocks))
-    if L < 1:
-        raise ValueError(
-            f"need at least {blocks} whole periods after the transient, t is too short"
-        )
+    run = check_run(params, t, float(t) / 2 if transient is None else transient, int(blocks))
+    t, transient, p0, L = run.t, run.transient, run.p0, run.L
     ics, states, box_index, boxes = _states_from(params, boxes, n, seed, initial, start_phase)
+    # ---- the features run: chunked (Ctrl-C stops it between chunks), size checked
+    from bbdyn.core.ensemble import CARRY_WIDTH, CNT_WIDTH, new_carry
+
     m = ics.shape[0]
     nbins = int(round(10.0 / th.hist_width)) + 1
-    out = {
-        "blocks": np.zeros((m, int(blocks), core.BF_WIDTH)),
-        "hist": np.zeros((m, nbins)),
-        "kcount": np.zeros((m, int(th.kmax) + 1)),
-        "glob": np.zeros((m, core.G_WIDTH)),
-        "mismatch": np.zeros((m, int(th.pmax))),
+    shapes = {
+        "blocks": ((m, int(blocks), core.BF_WIDTH), float),
+        "hist": ((m, nbins), float),
+        "kcount": ((m, int(th.kmax) + 1), float),
+        "glob": ((m, core.G_WIDTH), float),
+        "mismatch": ((m, int(th.pmax)), float),
+        "samples": ((m, int(blocks) + 1), float),
+        "counts": ((m, CNT_WIDTH), np.int64),
+        "status": ((m,), np.int64),
     }
-    status = np.zeros(m, dtype=np.int64)
+    limits = {"params": params, "n": m, "t": t}
+    out = allocate(shapes, extra=m * 8 * (CARRY_WIDTH + 3 * int(th.pmax)), limits=limits)
+    carry = new_carry(states, 0, int(th.pmax))
     end = np.array([p0 + blocks * L, 0.0])
+
+    def advance(budget):
+        run_features(
+            carry, budget, params.kernel(), end, p0, L, int(blocks), th.tiny, th.k_tol,
+            int(th.kmax), th.hist_width, out["samples"], out["counts"], out["blocks"], out["hist"],
+            out["kcount"], out["glob"], out["mismatch"], out["status"],
+        )  # fmt: skip
+
     start = time.perf_counter()
     with numba_threads(threads):
-        run_features(
-            states, params.kernel(), end, p0, L, int(blocks), th.tiny, th.k_tol, int(th.kmax),
-            th.hist_width, out["blocks"], out["hist"], out["kcount"], out["glob"],
-            out["mismatch"], status,
-        )  # fmt: skip
+        run_chunked(advance, carry, out["status"], end[0])
     wall = time.perf_counter() - start
-    raise_for_particles(status, ics)
-    out.update(initial=ics, box_index=box_index, status=status)
+    # classify_features has no notion of a failed trajectory yet: a failure raises
+    failed_particles(out["status"], ics, "raise")
+    del out["samples"], out["counts"]
+    # ---- end of the features run
+    out.update(initial=ics, box_index=box_index)
     meta = make_meta(
         params,
         seed=seed,

@@ -18,19 +18,39 @@ from __future__ import annotations
 import contextlib
 import math
 import time
+import warnings
 from dataclasses import dataclass
 
 import numba
 import numpy as np
 
 from bbdyn.billiard import check_params
-from bbdyn.core.status import FAILURES, STATUS_MESSAGES, SimulationError
+from bbdyn.core.status import (
+    BAD_STATE,
+    FAILURES,
+    NON_FINITE,
+    OK,
+    ROOT_NOT_CONVERGED,
+    STATUS_MESSAGES,
+    STUCK_FOREVER,
+    SimulationError,
+)
 from bbdyn.params import Params
 from bbdyn.results import Result, make_meta
 
 __all__ = ["Box", "reference_box", "initial_conditions", "ensemble", "EnsembleResult"]
 
 OBSERVABLES = ("displacement", "energy", "jumps", "record")
+#: What ``ensemble`` and ``classify`` do with particles the kernel failed on.
+ON_FAILURE = ("keep", "raise")
+#: Short names of the run status codes (``bbdyn.core.status``), as in ``meta["failures"]``.
+STATUS_NAMES = {
+    OK: "ok",
+    STUCK_FOREVER: "stuck_forever",
+    ROOT_NOT_CONVERGED: "root_not_converged",
+    NON_FINITE: "non_finite",
+    BAD_STATE: "bad_state",
+}
 
 
 @dataclass(frozen=True)
@@ -107,15 +127,179 @@ def numba_threads(threads: int | None):
         numba.set_num_threads(old)
 
 
-def raise_for_particles(status: np.ndarray, ics: np.ndarray) -> None:
-    """Raise ``SimulationError`` naming the first particle whose kernel status is a failure."""
-    failed = np.flatnonzero(np.isin(status, FAILURES))
-    if failed.size:
-        i = failed[0]
-        raise SimulationError(
-            f"{failed.size} particle(s) failed, e.g. particle {i} from (s, vx, vy) = "
-            f"{tuple(ics[i])}: {STATUS_MESSAGES[int(status[i])]} (status {status[i]})"
+# ---- run limits and validation (shared with bbdyn.classify) --------------------------------
+#: Fewest particles of an ensemble drawn from a box: every ensemble average comes with a
+#: standard error over particles (sample standard deviation), which needs two.
+N_MIN = 2
+#: Conservative rate model for size estimates: events (impacts, sticks, releases) per
+#: particle and per driving period, an upper bound of the measured rates with margin
+#: (see ``docs/diffusion.md``; ``tests/test_run_limits.py`` checks it over 30-100 Hz).
+EVENTS_PER_PERIOD = 4.0
+#: CPU time per event and thread (s) for the time estimate, measured ~0.35 us at 85.2 Hz.
+EVENT_COST_S = 0.5e-6
+#: Refuse runs estimated above this many events (about 14 h of one thread) unless the
+#: caller raises ``max_events``.
+MAX_EVENTS = 1e11
+#: Refuse runs whose arrays would take more than this many bytes unless the caller
+#: raises ``max_bytes``.
+MAX_BYTES = 4 * 2**30
+#: Events per chunk, summed over the particles of a run: the kernels return to Python
+#: (where Ctrl-C is handled and progress reported) about every CHUNK_EVENTS * EVENT_COST_S
+#: / threads seconds (a fraction of a second).
+CHUNK_EVENTS = 1_000_000
+
+
+@dataclass(frozen=True)
+class RunWindow:
+    """A validated run: ``t`` and ``transient`` (s); the averaging window of ``blocks`` blocks
+    of ``L`` whole driving periods from ``p0 = ceil(transient f)``."""
+
+    t: float
+    transient: float
+    p0: float
+    L: float
+    blocks: int
+
+
+def check_n(n) -> int:
+    """``n`` as an int if it is an integer >= ``N_MIN`` (particles drawn from a box)."""
+    if isinstance(n, bool) or not isinstance(n, int | float | np.integer) or int(n) != n:
+        raise ValueError(f"n must be an integer >= {N_MIN}, got {n!r}")
+    if n < N_MIN:
+        raise ValueError(
+            f"n must be an integer >= {N_MIN} (ensemble averages carry a standard error over "
+            f"particles, which needs two), got {n}; for one trajectory give initial=[[s, vx, vy]]"
         )
+    return int(n)
+
+
+def check_run(params: Params, t, transient, blocks: int = 1) -> RunWindow:
+    """Validate the run time ``t`` (s) and ``transient`` (s) and cut the averaging window.
+
+    The window covers ``blocks`` blocks of ``L = floor((floor(t f) - p0) / blocks)`` whole
+    periods from ``p0 = ceil(transient f)``; ``L >= 1`` is required.
+    """
+    t = float(t)
+    if not (math.isfinite(t) and t > 0):
+        raise ValueError(f"t must be a finite time > 0 s, got {t}")
+    transient = float(transient)
+    if not 0.0 <= transient < t:
+        raise ValueError(f"transient must be in [0, t = {t}) s, got {transient}")
+    p0 = float(math.ceil(transient * params.f))
+    L = float(math.floor((math.floor(t * params.f) - p0) / blocks))
+    if L < 1:
+        raise ValueError(
+            f"no room for {blocks} whole driving period(s) between transient = {transient} s and "
+            f"t = {t} s at f = {params.f} Hz: make t longer or the transient shorter"
+        )
+    return RunWindow(t, transient, p0, L, int(blocks))
+
+
+def check_size(
+    params: Params, n: int, t: float, nbytes: float, *, max_events=MAX_EVENTS, max_bytes=MAX_BYTES
+) -> dict[str, float]:
+    """Estimate a run's events, CPU time and memory; refuse it above the limits.
+
+    ``n`` particles for ``t`` seconds at ``EVENTS_PER_PERIOD`` events per driving period
+    (a conservative rate model: real runs make fewer); ``nbytes`` the memory of the arrays.
+    Returns the estimate ``{"events", "cpu_s", "bytes"}``; raises ValueError naming it and
+    what to do if ``events > max_events`` or ``bytes > max_bytes``.
+    """
+    events = float(n) * float(t) * params.f * EVENTS_PER_PERIOD
+    est = {"events": events, "cpu_s": events * EVENT_COST_S, "bytes": float(nbytes)}
+    said = (
+        f"n = {n} particles for t = {t:g} s at f = {params.f} Hz: up to {events:.3g} events, "
+        f"about {_duration(est['cpu_s'])} of CPU time, {nbytes / 2**30:.3g} GiB of arrays"
+    )
+    if not events <= max_events:
+        raise ValueError(
+            f"run too long: {said} (limit max_events = {max_events:.3g}); reduce n or t, "
+            "or pass a larger max_events if you mean it"
+        )
+    if not nbytes <= max_bytes:
+        raise ValueError(
+            f"run too large: {said} (limit max_bytes = {max_bytes / 2**30:.3g} GiB); reduce n, "
+            "the sample times or the buffers, or pass a larger max_bytes if you mean it"
+        )
+    return est
+
+
+def _duration(seconds: float) -> str:
+    """A rough duration: seconds, hours or years."""
+    if seconds < 3600:
+        return f"{seconds:.2g} s"
+    if seconds < 3.2e7:
+        return f"{seconds / 3600:.3g} h"
+    return f"{seconds / 3.156e7:.3g} years"
+
+
+def allocate(shapes: dict[str, tuple], *, extra: float, limits: dict) -> dict[str, np.ndarray]:
+    """Zero arrays of ``shapes`` (name -> (shape, dtype)) once ``check_size`` accepts them.
+
+    ``extra`` (bytes) counts the other arrays of the run; ``limits`` are the other
+    arguments of ``check_size``.
+    """
+    nbytes = sum(math.prod(shape) * np.dtype(dtype).itemsize for shape, dtype in shapes.values())
+    check_size(nbytes=nbytes + extra, **limits)
+    return {name: np.zeros(shape, dtype) for name, (shape, dtype) in shapes.items()}
+
+
+# ---- chunked runs and failed particles -----------------------------------------------------
+def run_chunked(advance, carry, status, end_periods, *, chunk_events=None, progress=None):
+    """Call ``advance(budget)`` until no particle is running; return between chunks.
+
+    ``advance`` runs a kernel (``core.ensemble.run_ensemble`` or ``run_features``) for at most
+    ``budget = chunk_events // n`` events per particle (``chunk_events`` default
+    ``CHUNK_EVENTS``); the kernels carry each particle's state (``carry``) across calls, so
+    the numbers do not depend on ``chunk_events``.  Python runs between chunks: Ctrl-C
+    (KeyboardInterrupt) stops the run there, and ``progress`` (a callable, optional) gets
+    the fraction of the simulated time done, in [0, 1].
+    """
+    from bbdyn.core.ensemble import RUNNING
+
+    chunk_events = CHUNK_EVENTS if chunk_events is None else int(chunk_events)
+    if chunk_events < 1:
+        raise ValueError(f"chunk_events must be an integer >= 1, got {chunk_events}")
+    status[:] = RUNNING
+    budget = max(1, chunk_events // max(1, status.size))
+    while True:
+        advance(budget)
+        running = status == RUNNING
+        if progress is not None:
+            ahead = np.minimum(carry.state[:, 0], end_periods)
+            progress(float(np.mean(np.where(running, ahead / end_periods, 1.0))))
+        if not running.any():
+            return
+
+
+def failed_particles(status: np.ndarray, ics: np.ndarray, on_failure: str) -> dict:
+    """Handle particles whose kernel status is a failure; return their count and reasons.
+
+    ``on_failure="raise"``: raise ``SimulationError`` naming the first failed particle.
+    ``"keep"``: warn (RuntimeWarning) and go on with the others; raise all the same if no
+    particle succeeded.  Returns ``{"n_failed": k, "failures": {status name: count}}``.
+    """
+    if on_failure not in ON_FAILURE:
+        raise ValueError(f"on_failure must be one of {ON_FAILURE}, got {on_failure!r}")
+    failed = np.flatnonzero(np.isin(status, FAILURES))
+    reasons = {STATUS_NAMES[int(c)]: int(np.count_nonzero(status == c)) for c in FAILURES}
+    out = {"n_failed": int(failed.size), "failures": {k: v for k, v in reasons.items() if v}}
+    if not failed.size:
+        return out
+    i = failed[0]
+    said = (
+        f"{failed.size} of {status.size} particle(s) failed ({out['failures']}), e.g. particle "
+        f"{i} from (s, vx, vy) = {tuple(ics[i])}: {STATUS_MESSAGES[int(status[i])]}"
+    )
+    if on_failure == "raise" or failed.size == status.size:
+        raise SimulationError(said)
+    warnings.warn(
+        f"{said}; the observables cover the {status.size - failed.size} others "
+        "(status per particle in the result; on_failure='raise' to stop instead)",
+        RuntimeWarning,
+        stacklevel=3,
+    )
+    return out
 
 
 def ensemble(
@@ -135,6 +319,11 @@ def ensemble(
     record_capacity: int = 4096,
     threads: int | None = None,
     fast_forward: bool = True,
+    on_failure: str = "keep",
+    max_events: float = MAX_EVENTS,
+    max_bytes: float = MAX_BYTES,
+    chunk_events: int | None = None,
+    progress=None,
 ) -> EnsembleResult:
     """Run an ensemble of independent particles for ``t`` seconds.
 
@@ -144,13 +333,15 @@ def ensemble(
     t : float
         Simulated time (s), > 0.
     n : int, optional
-        Number of particles drawn from ``box`` (default 1000); not with ``initial``.
+        Number of particles drawn from ``box`` (default 1000), >= ``N_MIN`` = 2 (every
+        ensemble average carries a standard error); not with ``initial``.
     seed : int or None
         Seed of ``np.random.SeedSequence``; stored in the metadata.
     box : Box, optional
         Box of initial conditions; default ``reference_box(params)``.
     initial : array of shape (n, 3), optional
-        Explicit post-collision initial conditions ``(s, vx+, vy+)`` at t = 0 in tile 0.
+        Explicit post-collision initial conditions ``(s, vx+, vy+)`` at t = 0 in tile 0
+        (one row or more; standard errors need two that succeed).
     sample_times : array, optional
         Times (s) in ``[0, t]`` at which displacements are recorded; default 101
         equally spaced times including 0 and ``t``.
@@ -172,6 +363,23 @@ def ensemble(
         Skip whole stick-release cycles once a release repeats bit for bit
         (``core.ensemble.fast_forward``): the same events; counts, jumps,
         displacements exact, integrals to rounding.  Not for recorded particles.
+    on_failure : {"keep", "raise"}
+        What to do when the kernel fails for some particles (``status`` a failure, e.g.
+        a non-finite state): ``"keep"`` (default) warns and keeps the others, which are
+        exactly what they would be alone; the result's ``status`` says which failed,
+        ``meta["n_failed"]`` and ``meta["failures"]`` how many and why, and its
+        estimators use the particles that succeeded (a failure that depends on the
+        initial condition can bias them: read the warning).  ``"raise"`` raises
+        ``SimulationError``.  If every particle fails, it raises either way.
+    max_events, max_bytes : float
+        Refuse (ValueError, with an estimate of time and memory) runs estimated above
+        this many events (rate model ``EVENTS_PER_PERIOD``) or this much array memory;
+        defaults ``MAX_EVENTS``, ``MAX_BYTES``.  Raise them if you mean it.
+    chunk_events : int, optional
+        Events per kernel call over all particles (default ``CHUNK_EVENTS``): between calls Ctrl-C
+        stops the run and ``progress`` is told.  The numbers do not depend on it.
+    progress : callable, optional
+        Called between chunks with the fraction of the simulated time done, in [0, 1].
 
     Returns
     -------
@@ -183,45 +391,27 @@ def ensemble(
     >>> res = ensemble(Params(f=85.2), n=20, t=2.0, seed=1)   # doctest: +SKIP
     >>> D, D_se = res.D()                                     # doctest: +SKIP
     """
-
     from bbdyn.core import ensemble as core
 
     check_params(params)
-    t = float(t)
-    if not (math.isfinite(t) and t > 0):
-        raise ValueError(f"t must be a finite time > 0 s, got {t}")
+    if on_failure not in ON_FAILURE:
+        raise ValueError(f"on_failure must be one of {ON_FAILURE}, got {on_failure!r}")
     unknown = set(observables) - set(OBSERVABLES)
     if unknown:
         raise ValueError(f"observables must be among {OBSERVABLES}, got {sorted(unknown)}")
+    run = check_run(params, t, float(t) / 5 if transient is None else transient)
+    t, transient = run.t, run.transient
+    window = np.array([run.p0, run.p0 + run.L])
     if initial is not None:
         if n is not None or box is not None:
             raise ValueError("give either initial or (n, box), not both")
         ics = np.array(initial, dtype=float, ndmin=2)
-        if ics.ndim != 2 or ics.shape[1] != 3 or not np.all(np.isfinite(ics)):
-            raise ValueError(f"initial must be a finite (n, 3) array, got shape {ics.shape}")
+        if ics.ndim != 2 or ics.shape[1] != 3 or ics.shape[0] < 1 or not np.all(np.isfinite(ics)):
+            raise ValueError(f"initial must be a finite (n, 3) array, n >= 1, got {ics.shape}")
+        n = ics.shape[0]
     else:
-        n = 1000 if n is None else n
-        if int(n) != n or n < 1:
-            raise ValueError(f"n must be a positive integer, got {n}")
-        ics = initial_conditions(params, int(n), seed, box)
-    states = kernel_states(params, ics)
-    n = ics.shape[0]
-
-    transient = t / 5 if transient is None else float(transient)
-    if not 0.0 <= transient < t:
-        raise ValueError(f"transient must be in [0, t = {t}) s, got {transient}")
-    window = np.array([math.ceil(transient * params.f), math.floor(t * params.f)], dtype=float)
-    if window[1] <= window[0]:
-        raise ValueError(f"no whole driving period between transient = {transient} s and t = {t} s")
-    if sample_times is None:
-        sample_times = np.linspace(0.0, t, 101)
-    sample_times = np.asarray(sample_times, dtype=float)
-    if sample_times.ndim != 1 or np.any(np.diff(sample_times) < 0):
-        raise ValueError("sample_times must be a sorted one-dimensional array")
-    if sample_times.size and (sample_times[0] < 0 or sample_times[-1] > t):
-        raise ValueError(f"sample_times must lie in [0, t = {t}] s")
-    if "displacement" not in observables:
-        sample_times = sample_times[:0]
+        n = check_n(1000 if n is None else n)
+    sample_times = _sample_times(sample_times, t, "displacement" in observables)
     s_periods, s_phase = periods_phase(sample_times, params.f)
     end_periods, end_phase = periods_phase(np.array([t]), params.f)
     end = np.array([end_periods[0], end_phase[0]])
@@ -243,37 +433,42 @@ def ensemble(
     cap = int(jump_capacity) if "jumps" in observables else 0
     n_rec = min(int(record_particles), n) if "record" in observables else 0
     rec_cap = int(record_capacity) if n_rec else 0
-    disp = np.zeros((n, s_periods.size))
-    acc = np.zeros((n, 1, 4))  # one block: the energy window
-    counts = np.zeros((n, core.CNT_WIDTH), dtype=np.int64)
-    jump_len = np.zeros((n, cap), dtype=np.int64)
-    jump_time = np.zeros((n, cap))
-    record = np.zeros((n_rec, rec_cap, core.REC_WIDTH))
-    final = np.zeros((n, 7))
-    status = np.zeros(n, dtype=np.int64)
+    lags = core.FF_LAGS if fast_forward else 0
+    out = allocate(
+        {
+            "disp": ((n, s_periods.size), float),
+            "acc": ((n, 1, 4), float),  # one block: the energy window
+            "counts": ((n, core.CNT_WIDTH), np.int64),
+            "jump_len": ((n, cap), np.int64),
+            "jump_time": ((n, cap), float),
+            "record": ((n_rec, rec_cap, core.REC_WIDTH), float),
+            "final": ((n, 7), float),
+            "status": ((n,), np.int64),
+        },
+        # initial conditions, their uniforms, states and the carried loop states
+        extra=n * 8 * (3 + 3 + 7 + core.CARRY_WIDTH + lags * (6 + 4 + core.CNT_WIDTH)),
+        limits={"params": params, "n": n, "t": t, "max_events": max_events, "max_bytes": max_bytes},
+    )
+    if initial is None:
+        ics = initial_conditions(params, n, seed, box)
+    carry = core.new_carry(kernel_states(params, ics), lags, 0)
+    disp, acc, counts, status = out["disp"], out["acc"], out["counts"], out["status"]
+
+    def advance(budget):
+        core.run_ensemble(
+            carry, budget, params.kernel(), end, window, s_periods, s_phase, record_win, flags,
+            disp, acc, counts, out["jump_len"], out["jump_time"], out["record"], out["final"],
+            status,
+        )  # fmt: skip
 
     start = time.perf_counter()
     with numba_threads(threads) as used_threads:
-        core.run_ensemble(
-            states,
-            params.kernel(),
-            end,
-            window,
-            s_periods,
-            s_phase,
-            record_win,
-            flags,
-            disp,
-            acc,
-            counts,
-            jump_len,
-            jump_time,
-            record,
-            final,
-            status,
-        )
+        run_chunked(
+            advance, carry, status, end_periods[0] + end_phase[0] / (2 * math.pi),
+            chunk_events=chunk_events, progress=progress,
+        )  # fmt: skip
     wall = time.perf_counter() - start
-    raise_for_particles(status, ics)
+    failed = failed_particles(status, ics, on_failure)
 
     t_window = (window[1] - window[0]) / params.f
     arrays = {
@@ -287,7 +482,7 @@ def ensemble(
         "jumps": counts[:, core.CNT_JUMPS],
         "events": counts[:, core.CNT_EVENTS],
         "skipped_events": counts[:, core.CNT_SKIPPED],
-        "final": final,
+        "final": out["final"],
     }
     if "energy" in observables:
         arrays["E_x"] = acc[:, 0, core.ACC_EX] / t_window
@@ -295,10 +490,10 @@ def ensemble(
         arrays["E_pot"] = acc[:, 0, core.ACC_POT] / t_window
         arrays["E"] = arrays["E_x"] + arrays["E_y"] + arrays["E_pot"]
     if "jumps" in observables:
-        arrays["jump_len"] = jump_len
-        arrays["jump_time"] = jump_time
+        arrays["jump_len"] = out["jump_len"]
+        arrays["jump_time"] = out["jump_time"]
     if n_rec:
-        arrays["record"] = record
+        arrays["record"] = out["record"]
         arrays["record_n"] = counts[:n_rec, core.CNT_RECORD]
     meta = make_meta(
         params,
@@ -313,8 +508,21 @@ def ensemble(
         threads=used_threads,
         fast_forward=bool(fast_forward),
         box=None if initial is not None else vars(box or reference_box(params)),
+        **failed,
     )
     return EnsembleResult(arrays, meta)
+
+
+def _sample_times(sample_times, t: float, wanted: bool) -> np.ndarray:
+    """Validated sample times (s) in ``[0, t]``: default 101 equally spaced; none if not wanted."""
+    if sample_times is None:
+        sample_times = np.linspace(0.0, t, 101)
+    sample_times = np.asarray(sample_times, dtype=float)
+    if sample_times.ndim != 1 or np.any(np.diff(sample_times) < 0):
+        raise ValueError("sample_times must be a sorted one-dimensional array")
+    if sample_times.size and (sample_times[0] < 0 or sample_times[-1] > t):
+        raise ValueError(f"sample_times must lie in [0, t = {t}] s")
+    return sample_times if wanted else sample_times[:0]
 
 
 class EnsembleResult(Result):
@@ -328,19 +536,32 @@ class EnsembleResult(Result):
     the last event before t (periods, phase, tile, xi, vx, vyrel, kind); with jumps
     ``jump_len``, ``jump_time`` (n, cap); with a record ``record`` (n_rec, cap, 7)
     (periods, phase, tile, xi, vx, vyrel, kind) and ``record_n``.
+
+    A particle whose kernel failed (``status`` in ``core.status.FAILURES``; ``meta["n_failed"]``
+    of them, ``meta["failures"]`` by status name) keeps its rows, NaN displacements after
+    the failure and integrals up to it; the estimators (``msd``, ``D``, ``summary``,
+    ``jump_data``) use the particles that succeeded (``ok``) only.
     """
 
     kind = "ensemble"
 
+    @property
+    def ok(self) -> np.ndarray:
+        """Boolean mask (n,) of the particles that reached the end (status not a failure)."""
+        return ~np.isin(self["status"], FAILURES)
+
     def msd(self) -> tuple[np.ndarray, np.ndarray]:
-        """Sample times (s) and the ensemble mean squared displacement (mm^2)."""
-        return self["sample_times"], np.mean(self["displacement"] ** 2, axis=0)
+        """Sample times (s) and the mean squared displacement (mm^2) over the ``ok`` particles."""
+        return self["sample_times"], np.mean(self["displacement"][self.ok] ** 2, axis=0)
 
     def D(self, window=(0.5, 1.0)) -> tuple[float, float]:
-        """Einstein D and its standard error (mm^2/s), ``bbdyn.diffusion.einstein_D``."""
+        """Einstein D and its standard error (mm^2/s) over the ``ok`` particles (>= 2 needed).
+
+        ``bbdyn.diffusion.einstein_D``.
+        """
         from bbdyn.diffusion import einstein_D
 
-        return einstein_D(self["sample_times"], self["displacement"], window=window)
+        return einstein_D(self["sample_times"], self["displacement"][self.ok], window=window)
 
     def jump_data(self):
         """The jumps in the averaging window as ``bbdyn.approx.JumpData``.
@@ -352,7 +573,8 @@ class EnsembleResult(Result):
 
         if "jump_len" not in self.arrays:
             raise ValueError("jumps were not recorded: run with observables including 'jumps'")
-        counts, cap = self["jumps"], self["jump_len"].shape[1]
+        ok = self.ok
+        counts, cap = self["jumps"][ok], self["jump_len"].shape[1]
         if np.any(counts > cap):
             raise ValueError(
                 f"{np.count_nonzero(counts > cap)} particle(s) made more than jump_capacity = "
@@ -360,27 +582,34 @@ class EnsembleResult(Result):
             )
         t0 = self.meta["window_periods"][0] / self.meta["params"]["f"]
         return JumpData.from_particles(
-            [row[:k] for row, k in zip(self["jump_len"], counts, strict=True)],
-            [row[:k] - t0 for row, k in zip(self["jump_time"], counts, strict=True)],
+            [row[:k] for row, k in zip(self["jump_len"][ok], counts, strict=True)],
+            [row[:k] - t0 for row, k in zip(self["jump_time"][ok], counts, strict=True)],
             t_total=self.meta["window_s"],
             d=self.meta["params"]["d"],
         )
 
-    def summary(self, window=(0.5, 1.0)) -> dict[str, float]:
-        """Ensemble means with standard errors over particles (plain floats, for JSON)."""
-        n = self["status"].size
-        out: dict[str, float] = {}
+    def summary(self, window=(0.5, 1.0)) -> dict:
+        """Means with standard errors over the ``ok`` particles (plain numbers, for JSON).
+
+        Also ``n_ok``, ``n_failed`` and ``failures`` (status name -> count).  Standard
+        errors (and D) are NaN with fewer than two ``ok`` particles.
+        """
+        ok = self.ok
+        n = int(np.count_nonzero(ok))
+        out: dict = {"n_ok": n, "n_failed": int(ok.size - n)}
+        out["failures"] = dict(self.meta.get("failures", {}))
         if self["displacement"].shape[1] >= 2:
-            out["D"], out["D_se"] = (float(v) for v in self.D(window))
+            D = self.D(window) if n >= 2 else (math.nan, math.nan)
+            out["D"], out["D_se"] = (float(v) for v in D)
         names = ["E", "E_x", "E_y", "E_pot", "stuck_fraction"]
         for name in names:
             if name in self.arrays:
-                values = self[name]
+                values = self[name][ok]
                 out[name] = float(values.mean())
                 out[name + "_se"] = float(values.std(ddof=1) / math.sqrt(n)) if n > 1 else math.nan
-        rate = self["collisions"] / self.meta["window_s"]
+        rate = self["collisions"][ok] / self.meta["window_s"]
         out["collisions_per_particle_per_s"] = float(rate.mean())
-        out["jumps_per_particle_per_s"] = float(np.mean(self["jumps"]) / self.meta["window_s"])
+        out["jumps_per_particle_per_s"] = float(np.mean(self["jumps"][ok]) / self.meta["window_s"])
         w = 2 * math.pi * self.meta["params"]["f"]
         out["E_reference"] = 0.5 * (self.meta["params"]["A"] * w) ** 2
         return out

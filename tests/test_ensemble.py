@@ -188,7 +188,7 @@ def test_end_to_end_at_85_2_hz_quick(run85, tmp_path):
         ({"transient": 2.0}, "transient must be in"),
         ({"observables": ("msd",)}, "observables must be among"),
         ({"sample_times": [0.5, 0.1]}, "sample_times must be"),
-        ({"t": 0.01, "transient": 0.005}, "no whole driving period"),
+        ({"t": 0.01, "transient": 0.005}, "no room for 1 whole driving period"),
     ],
     ids=[
         "beta_one_alpha_below_one",

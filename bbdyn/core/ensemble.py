@@ -32,6 +32,7 @@ Conventions (MODEL.md sections 3 and 4):
 """
 
 import math
+from typing import NamedTuple
 
 import numpy as np
 from numba import njit, prange
@@ -73,6 +74,34 @@ CNT_EVENTS, CNT_COLLISIONS, CNT_STICKS, CNT_JUMPS, CNT_RECORD, CNT_SKIPPED = 0, 
 CNT_WIDTH = 6
 #: Columns of the collision record: periods, phase, tile, xi, vx, vyrel, kind.
 REC_WIDTH = 7
+#: Status of a particle that has not reached the end yet (between chunks); the finished
+#: ones carry a ``core.status`` code (>= 0).
+RUNNING = -1
+#: Columns of a particle's loop state ``carry.state`` (everything ``particle_loop`` keeps
+#: between events): the last event ``periods, phase, tile, xi, vx, vyrel, kind``, the
+#: start ``tile0, xi0``, the next sample index, the trap, the last departure
+#: ``(periods, phase)``, the feature ring count and tiny-hop run, the releases remembered.
+C_TILE0, C_XI0, C_K, C_TRAP, C_DEP_P, C_DEP_PH = 7, 8, 9, 10, 11, 12
+C_NRING, C_RUN, C_NREL = 13, 14, 15
+CARRY_WIDTH = 16
+
+
+class Carry(NamedTuple):
+    """Per-particle loop state carried from one chunk of events to the next.
+
+    ``state`` (n, CARRY_WIDTH), columns ``C_*``; the fast-forward rings ``rel``
+    (n, FF_LAGS or 0, 6), ``rel_acc`` (n, ., 4), ``rel_cnt`` (int64, n, ., CNT_WIDTH)
+    (see ``fast_forward``); the features' ring of the last collisions ``ring``
+    (n, pmax or 0, 3) (see ``features.feature_collision``).  Everything a particle's
+    loop needs to go on lives here, so a run cut into chunks makes the same
+    operations in the same order as one uncut run: the numbers are bitwise equal.
+    """
+
+    state: np.ndarray
+    rel: np.ndarray
+    rel_acc: np.ndarray
+    rel_cnt: np.ndarray
+    ring: np.ndarray
 
 
 @njit(cache=True)
@@ -254,17 +283,61 @@ def fast_forward(
     return 0, 0.0, 0.0, n_rel + 1
 
 
+def new_carry(states, ff_lags, pmax):
+    """A ``Carry`` for particles starting at ``states`` (n, 7); rings of ``ff_lags``, ``pmax``.
+
+    ``ff_lags`` is ``FF_LAGS`` with fast-forward, else 0 (no ring is kept); ``pmax`` the
+    features' longest period, else 0.  Plain Python: it only allocates and starts.
+    """
+    n = states.shape[0]
+    carry = Carry(
+        np.zeros((n, CARRY_WIDTH)),
+        np.zeros((n, ff_lags, 6)),
+        np.zeros((n, ff_lags, 4)),
+        np.zeros((n, ff_lags, CNT_WIDTH), dtype=np.int64),
+        np.zeros((n, pmax, 3)),
+    )
+    start_particles(states, carry.state)
+    return carry
+
+
+@njit(cache=True)
+def start_particles(states, carry_state):
+    """Write the loop state of particles starting at ``states`` (n, 7) into ``carry_state``."""
+    for i in range(states.shape[0]):
+        for c in range(7):
+            carry_state[i, c] = states[i, c]
+        carry_state[i, C_TILE0] = states[i, 2]
+        carry_state[i, C_XI0] = states[i, 3]
+        carry_state[i, C_K] = 0.0
+        carry_state[i, C_TRAP] = trap_of(states[i, 2], states[i, 3])
+        carry_state[i, C_DEP_P] = states[i, 0]
+        carry_state[i, C_DEP_PH] = states[i, 1]
+        carry_state[i, C_NRING] = 0.0
+        carry_state[i, C_RUN] = 0.0
+        carry_state[i, C_NREL] = 0.0
+
+
 @njit(cache=True)
 def particle_loop(
-    state, kp, end, win, sample_periods, sample_phase, record_window, flags, fpar,
-    acc, disp, counts, jump_len, jump_time, record, final, hist, kcount, glob, mism,
+    cs, rel, rel_acc, rel_cnt, ring, budget, kp, end, win, sample_periods, sample_phase,
+    record_window, flags, fpar, acc, disp, counts, jump_len, jump_time, record, final, hist,
+    kcount, glob, mism,
 ):  # fmt: skip
-    """Integrate one particle from ``state`` to ``end``, feeding the accumulators ``flags`` select.
+    """Integrate one particle for at most ``budget`` events toward ``end``; feed the accumulators.
+
+    The particle goes on from its loop state ``cs`` (and rings ``rel, rel_acc, rel_cnt``,
+    ``ring``, a particle's rows of a ``Carry``) and leaves it there: calling again goes on
+    exactly where it stopped, so the numbers do not depend on how the run is cut.
 
     Parameters
     ----------
-    state : array, shape (7,)
-        ``periods, phase, tile, xi, vx, vyrel, kind`` of the initial event.
+    cs : array, shape (CARRY_WIDTH,)
+        Loop state, columns ``C_*`` (``start_particles``); updated in place.
+    rel, rel_acc, rel_cnt, ring : arrays
+        The particle's rings (``Carry``); updated in place.
+    budget : int
+        Events (calls of ``billiard_event``) at most in this call.
     kp : KernelParams
     end : array, shape (2,)
         End of the run, ``(periods, phase)``.
@@ -290,43 +363,42 @@ def particle_loop(
     record : array, shape (cap_rec, REC_WIDTH)
         Collision record (written with ``OBS_RECORD``).
     final : array, shape (7,)
-        The last event before ``end``.
+        The last event before ``end`` (written when the particle ends).
     hist, kcount, glob, mism : arrays
         Feature rows (see ``features.feature_collision``), written with ``OBS_FEATURES``.
 
     Returns
     -------
     status : int
-        ``OK`` or ``STUCK_FOREVER`` (normal ends) or the kernel's failure status.
+        ``RUNNING`` if the budget ran out first, else ``OK`` or ``STUCK_FOREVER`` (normal
+        ends) or the kernel's failure status.
     """
-    periods, phase, tile, xi, vx, vyrel = state[0], state[1], state[2], state[3], state[4], state[5]
-    kind = int(state[6])
-    tile0, xi0 = tile, xi
+    periods, phase, tile, xi, vx, vyrel = cs[0], cs[1], cs[2], cs[3], cs[4], cs[5]
+    kind = int(cs[6])
+    tile0, xi0 = cs[C_TILE0], cs[C_XI0]
+    k = int(cs[C_K])
+    trap = cs[C_TRAP]
+    dep_periods, dep_phase = cs[C_DEP_P], cs[C_DEP_PH]  # last departure (features' flights)
+    n_ring, run, n_rel = int(cs[C_NRING]), int(cs[C_RUN]), int(cs[C_NREL])
     do_disp = (flags & OBS_DISPLACEMENT) != 0
     energy = (flags & OBS_ENERGY) != 0
     do_jumps = (flags & OBS_JUMPS) != 0
     do_record = (flags & OBS_RECORD) != 0
     do_feat = (flags & OBS_FEATURES) != 0
     do_ff = (flags & OBS_FAST_FORWARD) != 0 and not do_feat and not do_record
-    rel = np.zeros((FF_LAGS, 6))
-    rel_acc = np.zeros((FF_LAGS, 4))
-    rel_cnt = np.zeros((FF_LAGS, CNT_WIDTH), dtype=np.int64)
-    n_rel = 0
     p0, L, nb = win
     p1 = p0 + nb * L
     rec0 = (record_window[0], record_window[1])
     rec1 = (record_window[2], record_window[3])
     n_samples = sample_periods.shape[0]
-    k = 0
-    trap = trap_of(tile, xi)
     cap = jump_len.shape[0]
-    dep_periods, dep_phase = periods, phase  # last departure (features' flight times)
-    pmax = mism.shape[0]
-    ring = np.zeros((pmax, 3))  # features: the last pmax collisions
-    n_ring = 0
-    run = 0
     status = OK
+    n_done = 0
     while True:
+        if n_done == budget:
+            status = RUNNING
+            break
+        n_done += 1
         nxt = billiard_event(periods, phase, tile, xi, vx, vyrel, kind, kp)
         status = nxt[7]
         if status == STUCK_FOREVER:
@@ -411,13 +483,13 @@ def particle_loop(
                 record[r, 5] = vyrel
                 record[r, 6] = kind
             counts[CNT_RECORD] = r + 1
-    final[0] = periods
-    final[1] = phase
-    final[2] = tile
-    final[3] = xi
-    final[4] = vx
-    final[5] = vyrel
-    final[6] = kind
+    cs[0], cs[1], cs[2], cs[3], cs[4], cs[5], cs[6] = periods, phase, tile, xi, vx, vyrel, kind
+    cs[C_K], cs[C_TRAP], cs[C_DEP_P], cs[C_DEP_PH] = k, trap, dep_periods, dep_phase
+    cs[C_NRING], cs[C_RUN], cs[C_NREL] = n_ring, run, n_rel
+    if status == RUNNING:
+        return status
+    for c in range(7):
+        final[c] = cs[c]
     if status != OK and status != STUCK_FOREVER:
         # a failed particle leaves NaN where it could not say where it was
         for kk in range(k, n_samples):
@@ -430,7 +502,8 @@ def particle_loop(
 
 @njit(cache=True, parallel=True)
 def run_ensemble(
-    states,
+    carry,
+    budget,
     kp,
     end,
     window_periods,
@@ -447,12 +520,17 @@ def run_ensemble(
     final,
     status,
 ):
-    """Integrate every particle (in parallel over particles) and fill the outputs in place.
+    """Advance every running particle by at most ``budget`` events (prange over particles).
+
+    Call it again while some ``status`` is ``RUNNING``: the outputs are filled in place
+    and do not depend on ``budget`` (see ``Carry``).
 
     Parameters
     ----------
-    states : array, shape (n, 7)
-        Initial events ``periods, phase, tile, xi, vx, vyrel, kind``.
+    carry : Carry
+        Loop states (``new_carry``; rings of ``FF_LAGS`` with fast-forward, ``pmax`` 0).
+    budget : int
+        Events per particle at most in this call (>= 1).
     kp, end, sample_periods, sample_phase, record_window, flags
         As in ``particle_loop``.
     window_periods : array, shape (2,)
@@ -471,34 +549,43 @@ def run_ensemble(
     final : array, shape (n, 7)
         The last event before ``end`` (the state the run would continue from).
     status : int64 array, shape (n,)
-        Per-particle status (``OK``, ``STUCK_FOREVER`` or a failure).
+        Per-particle status: ``RUNNING`` on entry for the particles to advance; on return
+        ``RUNNING``, ``OK``, ``STUCK_FOREVER`` or a failure.
     """
     win = (window_periods[0], window_periods[1] - window_periods[0], 1)
     fpar = (0.0, 0.0, 0, 1.0)
     no_record = np.zeros((0, REC_WIDTH))
     none = np.zeros(0)
-    for i in prange(states.shape[0]):
+    for i in prange(status.shape[0]):
+        if status[i] != RUNNING:
+            continue
         in_record = i < record.shape[0]
         status[i] = particle_loop(
-            states[i], kp, end, win, sample_periods, sample_phase, record_window,
+            carry.state[i], carry.rel[i], carry.rel_acc[i], carry.rel_cnt[i], carry.ring[i],
+            budget, kp, end, win, sample_periods, sample_phase, record_window,
             flags if in_record else flags & ~OBS_RECORD, fpar, acc[i], disp[i], counts[i],
             jump_len[i], jump_time[i], record[i] if in_record else no_record, final[i],
             none, none, none, none,
         )  # fmt: skip
 
 
-@njit(cache=True)
-def feature_particle(
-    i, state, kp, end, p0, L, nb, tiny, k_tol, kmax, hist_width, blocks, hist, kcount, glob, mism
-):
-    """Run particle ``i`` from ``state`` to ``end``; write its rows of the feature arrays.
+@njit(cache=True, parallel=True)
+def run_features(
+    carry, budget, kp, end, p0, L, nb, tiny, k_tol, kmax, hist_width, samples, counts, blocks,
+    hist, kcount, glob, mism, status,
+):  # fmt: skip
+    """Advance every running particle by at most ``budget`` events, filling the features.
+
+    As ``run_ensemble`` (call again while some ``status`` is ``RUNNING``; the numbers do
+    not depend on ``budget`` nor on the number of threads); each particle writes only
+    its own rows.
 
     Parameters
     ----------
-    i : int
-        Particle index.
-    state : array, shape (7,)
-        ``periods, phase, tile, xi, vx, vyrel, kind`` of the initial event.
+    carry : Carry
+        Loop states (``new_carry``; fast-forward rings of length 0, ``ring`` of ``pmax``).
+    budget : int
+        Events per particle at most in this call (>= 1).
     kp : KernelParams
     end : array, shape (2,)
         End of the run ``(periods, phase)``; at or after ``p0 + nb L`` periods.
@@ -512,41 +599,27 @@ def feature_particle(
         Largest locking number counted.
     hist_width : float
         Width (periods) of the flight-time histogram bins.
+    samples : array, shape (n, nb + 1)
+        Positions ``x - x(0)`` (mm) at the block boundaries (the loop's samples).
+    counts : int64 array, shape (n, CNT_WIDTH)
+        The loop's counts; zero on entry.
     blocks, hist, kcount, glob, mism : arrays
         Outputs (``features.py``), shapes (n, nb, BF_WIDTH), (n, nbins), (n, kmax + 1),
-        (n, G_WIDTH), (n, pmax); zero on entry except ``mism`` (any value).
-
-    Returns
-    -------
-    status : int
-        ``OK``, ``STUCK_FOREVER`` or the kernel's failure status.
+        (n, G_WIDTH), (n, pmax); zero on entry.
+    status : int64 array, shape (n,)
+        As in ``run_ensemble``.
     """
-    for p in range(mism.shape[1]):
-        mism[i, p] = 0.0
-    # the positions at the block boundaries are the loop's samples
     bounds = p0 + np.arange(nb + 1) * L
-    return particle_loop(
-        state, kp, end, (p0, L, nb), bounds, np.zeros(nb + 1), np.zeros(4),
-        OBS_DISPLACEMENT | OBS_ENERGY | OBS_FEATURES, (tiny, k_tol, kmax, hist_width),
-        blocks[i], np.zeros(nb + 1), np.zeros(CNT_WIDTH, dtype=np.int64),
-        np.zeros(0, dtype=np.int64), np.zeros(0), np.zeros((0, REC_WIDTH)), np.zeros(7),
-        hist[i], kcount[i], glob[i], mism[i],
-    )  # fmt: skip
-
-
-@njit(cache=True, parallel=True)
-def run_features(
-    states, kp, end, p0, L, nb, tiny, k_tol, kmax, hist_width, blocks, hist, kcount, glob, mism,
-    status,
-):  # fmt: skip
-    """Run every particle (prange over particles) and fill the feature arrays in place.
-
-    Arguments as in ``feature_particle``; ``status`` (int64, shape (n,)) receives each
-    particle's status.  Each particle writes only its own rows: the numbers do not
-    depend on the number of threads.
-    """
-    for i in prange(states.shape[0]):
-        status[i] = feature_particle(
-            i, states[i], kp, end, p0, L, nb, tiny, k_tol, kmax, hist_width,
-            blocks, hist, kcount, glob, mism,
+    bound_phase = np.zeros(nb + 1)
+    no_record = np.zeros(4)
+    fpar = (tiny, k_tol, kmax, hist_width)
+    flags = OBS_DISPLACEMENT | OBS_ENERGY | OBS_FEATURES
+    for i in prange(status.shape[0]):
+        if status[i] != RUNNING:
+            continue
+        status[i] = particle_loop(
+            carry.state[i], carry.rel[i], carry.rel_acc[i], carry.rel_cnt[i], carry.ring[i],
+            budget, kp, end, (p0, L, nb), bounds, bound_phase, no_record, flags, fpar,
+            blocks[i], samples[i], counts[i], np.zeros(0, dtype=np.int64), np.zeros(0),
+            np.zeros((0, REC_WIDTH)), np.zeros(7), hist[i], kcount[i], glob[i], mism[i],
         )  # fmt: skip
