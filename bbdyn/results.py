@@ -2,23 +2,41 @@
 
 A result is saved as two files side by side: ``NAME.npz`` (the arrays, loaded
 with ``allow_pickle=False``) and ``NAME.json`` (the metadata: parameters, seed,
-package version, run time, and the result's ``kind``).  ``load_result`` reads
-any saved result back into the class that wrote it.
+package version, run time, the result's ``kind`` and the SHA-256 of the .npz).
+``load_result`` reads any saved result back into the class that wrote it, and
+refuses (``DamagedResultError``) files that are truncated, unreadable or changed.
+
+Files are written to a temporary file in the same folder and renamed over their
+final name, so a file is complete or absent; they get the mode ``0666 & ~umask``
+of any new file (0644 under the usual umask).
 """
 
 from __future__ import annotations
 
+import contextlib
 import datetime as _dt
+import hashlib
 import json
 import os
 import platform
-import tempfile
+import secrets
+import zipfile
+from collections.abc import Callable
 from pathlib import Path
-from typing import Any, ClassVar
+from typing import IO, Any, ClassVar
 
 import numpy as np
 
-__all__ = ["Result", "make_meta", "load_result", "result_paths", "write_json_atomic"]
+__all__ = [
+    "DamagedResultError",
+    "Result",
+    "file_sha256",
+    "load_result",
+    "make_meta",
+    "read_json",
+    "result_paths",
+    "write_json_atomic",
+]
 
 _REGISTRY: dict[str, type[Result]] = {}
 
@@ -68,15 +86,57 @@ def result_paths(path: str | os.PathLike) -> tuple[Path, Path]:
     return path.with_name(path.name + ".npz"), path.with_name(path.name + ".json")
 
 
+class DamagedResultError(ValueError):
+    """A saved result whose files are unreadable, truncated or changed since they were written."""
+
+
+def file_sha256(path: str | os.PathLike) -> str:
+    """SHA-256 of the file's bytes, as hex."""
+    digest = hashlib.sha256()
+    with open(path, "rb") as fh:
+        for block in iter(lambda: fh.read(1 << 20), b""):
+            digest.update(block)
+    return digest.hexdigest()
+
+
+def _write_atomic(path: Path, write: Callable[[IO[bytes]], None]) -> None:
+    """Write ``path`` through ``write(binary_file)``: a temporary file renamed over ``path``.
+
+    The temporary file is created with mode 0666 (the OS applies the umask) and is
+    removed if the write fails (disk full, interrupt), so ``path`` is complete or absent.
+    """
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_name(f"{path.name}.{secrets.token_hex(4)}.tmp")
+    fd = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL | getattr(os, "O_BINARY", 0), 0o666)
+    try:
+        with os.fdopen(fd, "wb") as fh:
+            write(fh)
+        os.replace(tmp, path)
+    except BaseException:
+        with contextlib.suppress(OSError):
+            os.unlink(tmp)
+        raise
+
+
 def write_json_atomic(path: str | os.PathLike, obj: Any) -> Path:
     """Write ``obj`` as JSON to ``path`` atomically (temporary file, then rename)."""
     path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=path.name, suffix=".tmp")
-    with os.fdopen(fd, "w") as fh:
-        json.dump(_jsonable(obj), fh, indent=2, allow_nan=True)
-    os.replace(tmp, path)
+
+    def write(fh: IO[bytes]) -> None:
+        text = json.dumps(_jsonable(obj), indent=2, allow_nan=True)
+        fh.write(text.encode())
+
+    _write_atomic(path, write)
     return path
+
+
+def read_json(path: str | os.PathLike) -> Any:
+    """The JSON in ``path``; ``DamagedResultError`` naming the file if it is not valid JSON."""
+    try:
+        with open(path, "rb") as fh:
+            return json.loads(fh.read().decode())
+    except (UnicodeDecodeError, json.JSONDecodeError) as err:
+        raise DamagedResultError(f"{path} is not valid JSON ({err}): the file is damaged") from None
 
 
 class Result:
@@ -106,14 +166,14 @@ class Result:
         return f"{type(self).__name__}({shapes})"
 
     def save(self, path: str | os.PathLike) -> Path:
-        """Save to ``path.npz`` and ``path.json`` (atomically); returns the .json path."""
+        """Save to ``path.npz`` and ``path.json`` (atomically); returns the .json path.
+
+        The .json, written last, records the SHA-256 of the .npz (``npz_sha256``).
+        """
         npz_path, json_path = result_paths(path)
-        npz_path.parent.mkdir(parents=True, exist_ok=True)
-        fd, tmp = tempfile.mkstemp(dir=npz_path.parent, prefix=npz_path.name, suffix=".tmp")
-        with os.fdopen(fd, "wb") as fh:
-            np.savez(fh, **self.arrays)
-        os.replace(tmp, npz_path)
-        return write_json_atomic(json_path, {"kind": self.kind, "meta": self.meta})
+        _write_atomic(npz_path, lambda fh: np.savez(fh, **self.arrays))
+        header = {"kind": self.kind, "meta": self.meta, "npz_sha256": file_sha256(npz_path)}
+        return write_json_atomic(json_path, header)
 
     @classmethod
     def load(cls, path: str | os.PathLike) -> Result:
@@ -129,15 +189,29 @@ class Result:
 
 
 def load_result(path: str | os.PathLike) -> Result:
-    """Load any saved result; the class is chosen by the ``kind`` stored in its JSON."""
+    """Load any saved result; the class is chosen by the ``kind`` stored in its JSON.
+
+    Raises ``DamagedResultError`` (a ValueError) naming the file if the .json is not
+    valid JSON or the .npz is unreadable or differs from the checksum in the .json.
+    """
     npz_path, json_path = result_paths(path)
-    with open(json_path) as fh:
-        header = json.load(fh)
+    header = read_json(json_path)
+    if not isinstance(header, dict) or not isinstance(header.get("meta"), dict):
+        raise DamagedResultError(f"{json_path} is not a saved result (no 'kind' and 'meta')")
     kind = header.get("kind")
     if kind not in _REGISTRY:
         raise ValueError(f"{json_path}: unknown result kind {kind!r}")
-    with np.load(npz_path, allow_pickle=False) as data:
-        arrays = {k: data[k] for k in data.files}
+    checksum = header.get("npz_sha256")  # absent in results saved before bbdyn recorded it
+    if checksum is not None and file_sha256(npz_path) != checksum:
+        raise DamagedResultError(
+            f"{npz_path} differs from the checksum recorded in {json_path.name}: "
+            "the file is damaged (truncated or changed after it was written)"
+        )
+    try:
+        with np.load(npz_path, allow_pickle=False) as data:
+            arrays = {k: data[k] for k in data.files}
+    except (zipfile.BadZipFile, EOFError) as err:
+        raise DamagedResultError(f"{npz_path} is unreadable ({err}): the file is damaged") from None
     obj = _REGISTRY[kind].__new__(_REGISTRY[kind])
     Result.__init__(obj, arrays, header["meta"])
     return obj

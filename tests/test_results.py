@@ -1,6 +1,7 @@
 """Result objects: save/load round trip without pickling, atomic writes, kind dispatch."""
 
 import json
+import os
 
 import numpy as np
 import pytest
@@ -61,3 +62,54 @@ def test_dots_in_the_name_are_not_taken_for_a_suffix(tmp_path):
     ]  # fmt: skip
     assert load_result(tmp_path / "f_50.200000000")["x"][0] == 0.2
     assert load_result(tmp_path / "f_50.200000000.json")["x"][0] == 0.2
+
+
+@pytest.mark.parametrize("umask", [0o022, 0o027], ids=["022", "027"])
+def test_saved_files_follow_the_umask(tmp_path, umask):
+    """Files are created as 0666 & ~umask (0644 under the usual umask), like any other file."""
+    old = os.umask(umask)
+    try:
+        _Toy({"x": np.zeros(3)}, {}).save(tmp_path / "a")
+    finally:
+        os.umask(old)
+    for name in ("a.npz", "a.json"):
+        assert (tmp_path / name).stat().st_mode & 0o777 == 0o666 & ~umask, name
+
+
+@pytest.mark.parametrize("how", ["truncated", "empty", "flipped_byte"])
+def test_damaged_arrays_are_named_on_load(tmp_path, how):
+    """The .json records the checksum of its .npz: any change to the .npz is found."""
+    _Toy({"x": np.arange(100.0)}, {}).save(tmp_path / "a")
+    npz = tmp_path / "a.npz"
+    data = bytearray(npz.read_bytes())
+    if how == "truncated":
+        data = data[: len(data) // 2]
+    elif how == "empty":
+        data = bytearray()
+    else:
+        data[len(data) // 2] ^= 0xFF  # inside the array data: the zip still opens
+    npz.write_bytes(bytes(data))
+    with pytest.raises(ValueError, match=str(npz)):
+        load_result(tmp_path / "a")
+
+
+def test_garbage_json_is_named_on_load(tmp_path):
+    _Toy({"x": np.zeros(1)}, {}).save(tmp_path / "a")
+    (tmp_path / "a.json").write_text("{garbage")
+    with pytest.raises(ValueError, match=str(tmp_path / "a.json")):
+        load_result(tmp_path / "a")
+
+
+def test_failed_write_leaves_no_file(tmp_path, monkeypatch):
+    """A write cut short (here: disk full) leaves neither a half file nor a temporary file."""
+    import errno
+
+    import bbdyn.results
+
+    def full(*args, **kwargs):
+        raise OSError(errno.ENOSPC, "No space left on device")
+
+    monkeypatch.setattr(bbdyn.results.np, "savez", full)
+    with pytest.raises(OSError, match="No space"):
+        _Toy({"x": np.zeros(1)}, {}).save(tmp_path / "a")
+    assert list(tmp_path.iterdir()) == []
