@@ -128,3 +128,17 @@ def test_no_references_outside_repository():
         text = data.decode("utf-8", errors="replace")
         offenders += [f"{rel.decode()}: {word}" for word in forbidden if word in text]
     assert not offenders, "\n".join(offenders)
+
+
+def test_paper_page_tongues_and_gamma():
+    text = (ROOT / "docs" / "paper.md").read_text(encoding="utf-8")
+    stated = re.search(
+        r"\| ([0-9.]+)-([0-9.]+), ([0-9.]+)-([0-9.]+), ([0-9.]+)-([0-9.]+) Hz;", text
+    )
+    edges = [float(x) for x in stated.groups()]
+    for k in (1, 2, 3):
+        f_lo = frequency_at_gamma(tongue_gamma_lo(k, 0.5))
+        f_hi = frequency_at_gamma(tongue_gamma_hi(k, 0.5))
+        assert (round(f_lo, 2), round(f_hi, 2)) == tuple(edges[2 * k - 2 : 2 * k]), k
+    f, gamma = re.search(r"([0-9.]+) Hz \(Gamma = ([0-9.]+)\) not run", text).groups()
+    assert round(Params(f=float(f)).gamma, 3) == float(gamma)
