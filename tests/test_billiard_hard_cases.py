@@ -292,3 +292,21 @@ def test_zeno_collapse_into_a_wedge(f):
     else:
         assert traj.meta["status"] == "ok" and len(kind) == 2001
         assert np.count_nonzero(kind == RELEASE) >= 1
+
+
+@pytest.mark.parametrize("side", ["left", "right"])
+def test_wedge_bounce_tangent_to_the_neighbour(side):
+    """Found by the explored property test: at R = d the walls of a wedge lean 30 degrees
+    (asin(d / 2R)), so a vertical fall onto it, reflected with alpha = beta, leaves at 60
+    degrees: along the neighbour's wall, tangent to it within rounding.  It cannot fly off
+    the neighbour (gravity presses it on), so it touches it: with the static floor the
+    normal velocity vanishes and the particle stays in the wedge for good (it used to end
+    with BAD_STATE)."""
+    params = Params(f=30.0, A=0.0, alpha=0.1875, beta=0.1875, R=1.0, d=1.0)
+    s0 = 0.0 if side == "left" else params.s_max
+    traj = simulate(params, n_events=10, s0=s0, vx0=0.0, vy0=1.0)
+    assert traj.meta["status"].startswith("stuck on the floor for good")
+    assert traj["kind"][-1] == STICK and abs(traj["xi"][-1]) == params.d / 2
+    # it fell straight down onto the wedge: the stick is at the time of that fall
+    t = (traj["periods"][-1] * TWO_PI + traj["phase"][-1]) / params.w
+    assert math.isclose(t, 2.0 / params.g, rel_tol=1e-12)

@@ -1,6 +1,8 @@
 """The billiard kernel: geometry, collision law, first contact, invariants, API."""
 
 import math
+import os
+import shutil
 
 import numpy as np
 import pytest
@@ -179,6 +181,10 @@ HARD_CASES = {
         39.89118749577923,
     ),
     "steepest_wedge": (Params(f=70.0, R=1.001), 0.3, 5.0, 30.0),
+    # falls onto a 120-degree wedge and leaves along the neighbour's wall (R = d)
+    "wedge_tangent": (Params(f=30.0, A=0.0, alpha=0.1875, beta=0.1875, R=1.0, d=1.0), 0, 0, 1),
+    # alpha = 1, beta = 0 in that wedge: the bounces accumulate (Zeno)
+    "wedge_zeno": (Params(f=30.0, A=0.25, alpha=1.0, beta=0.0, R=1.0, d=1.0), 0, 0, 1),
     "gamma_below_one": (Params(f=40.0), 1.0, 3.0, 10.0),
     "tiny_velocity": (Params(f=85.2), 0.9, 1e-9, 1e-9),
     "huge_velocity": (Params(f=85.2), 0.9, 4000.0, 3e4),
@@ -307,3 +313,30 @@ def test_simulate_refuses_bad_input(kwargs, match):
 def test_simulate_refuses_bad_n_events():
     with pytest.raises(ValueError, match="n_events must be"):
         simulate(P, n_events=0, s0=0.5, vx0=1.0, vy0=10.0)
+
+
+# ---- the numba cache of the test run ---------------------------------------------------
+
+
+def test_numba_cache_is_keyed_on_the_kernel_sources(tmp_path):
+    """The test run's numba cache directory changes whenever a kernel source changes (numba
+    would not see a change in a function inlined from another module)."""
+    import numba
+    from conftest import REPO, numba_source_key
+
+    key = numba_source_key(REPO)
+    assert os.environ["NUMBA_CACHE_DIR"].endswith(key)
+    assert numba.config.CACHE_DIR == os.environ["NUMBA_CACHE_DIR"]
+    copy = tmp_path / "repo"
+    shutil.copytree(REPO / "bbdyn", copy / "bbdyn", ignore=shutil.ignore_patterns("__pycache__"))
+    shutil.copytree(REPO / "tests", copy / "tests", ignore=shutil.ignore_patterns("__pycache__"))
+    assert numba_source_key(copy) == key
+    plate = copy / "bbdyn" / "core" / "plate.py"
+    text = plate.read_text()
+    plate.write_text(text.replace("_KS6 = ", "_KS6 = 0.0 + "))
+    assert numba_source_key(copy) != key
+    plate.write_text(text)
+    assert numba_source_key(copy) == key
+    checks = copy / "tests" / "billiard_checks.py"  # a kernel outside bbdyn/core
+    checks.write_text(checks.read_text() + "\n")
+    assert numba_source_key(copy) != key

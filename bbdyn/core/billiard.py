@@ -309,16 +309,20 @@ def wedge_reflect(tile, xi, vx, vy, vn, vt, kp):
     time: reflect there too, and repeat.  The wedge is very obtuse (its tangents
     differ by 2 asin(d/2R)), so this ends after one or two reflections; after
     ``WEDGE_MAX_REFLECTIONS`` the particle is taken to have collapsed into the
-    wedge (returned with ``ok = False``).
+    wedge (returned with ``ok = False``).  A velocity tangent to the neighbour
+    within rounding (``|V.n| <= DEPARTURE_REL_TOL`` times its terms, the test of
+    ``billiard_flight``) touches it: it is reflected there too, since a flight
+    cannot start from it.
 
     Returns ``(tile, xi, vx, vy, vn, vt, ok)``.
     """
     half = 0.5 * kp.d
     for _ in range(WEDGE_MAX_REFLECTIONS):
-        if xi >= half and vx > 0.0 and (vy * kp.c0 - vx * half) < 0.0:
+        tol = DEPARTURE_REL_TOL * (abs(vy) * kp.c0 + abs(vx) * half)
+        if xi >= half and vx > 0.0 and (vy * kp.c0 - vx * half) <= tol:
             tile += 1.0
             xi = -half
-        elif xi <= -half and vx < 0.0 and (vy * kp.c0 + vx * half) < 0.0:
+        elif xi <= -half and vx < 0.0 and (vy * kp.c0 + vx * half) <= tol:
             tile -= 1.0
             xi = half
         else:
@@ -379,7 +383,7 @@ def collide(periods, phase, tile, xi, vx, vyrel, kp):
         S = arc_root(xi, kp)
         g_n = (g_eff * S - vt * vt) / kp.R
         if g_n > 0.0:
-            if vn == 0.0:
+            if vn <= 0.0:  # 0, or a rounding of 0 after a tangent wedge reflection
                 return periods, phase, tile, xi, 0.0, 0.0, STICK, OK
             tau_inf, ds = chatter_sum(phase, xi, S, vn, vt, g_eff, g_n, kp)
             if tau_inf < math.inf:
