@@ -142,3 +142,15 @@ def test_paper_page_tongues_and_gamma():
         assert (round(f_lo, 2), round(f_hi, 2)) == tuple(edges[2 * k - 2 : 2 * k]), k
     f, gamma = re.search(r"([0-9.]+) Hz \(Gamma = ([0-9.]+)\) not run", text).groups()
     assert round(Params(f=float(f)).gamma, 3) == float(gamma)
+
+
+def test_wedge_and_high_bounce_numbers():
+    from bbdyn.core.tolerances import EPS, WEDGE_MAX_REFLECTIONS, WEDGE_TOL
+    from bbdyn.highbounce import tongue_errors
+
+    text = section(MODEL_TEXT, "2. Bouncing ball billiard")
+    tol = re.search(r"within (\d+) eps d", text).group(1)
+    assert WEDGE_TOL == int(tol) * EPS
+    assert int(re.search(r"After (\d+) reflections", text).group(1)) == WEDGE_MAX_REFLECTIONS
+    error = re.search(r"too low \(by ([0-9.]+) % in Gamma for k = 1", MODEL_TEXT).group(1)
+    assert round(-100 * tongue_errors(1, 0.5)["gamma_hi"], 1) == float(error)
