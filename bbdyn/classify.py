@@ -4,10 +4,12 @@
 conditions, or given ones) and measures per-trajectory features after a
 transient (``core/features.py``): time averages per block of the averaging
 window, flight-time statistics, impact-phase coherence, the period of the
-vertical impact sequence, creep runs, jumps and a per-particle D.
-``classify_features`` groups the trajectories into attractors, decides
-ergodicity and the regime; ``classify`` does both.  The rules and every
-threshold are in ``Thresholds`` and in docs/classification.md.
+vertical impact sequence, creep runs and jumps; the same run samples each
+displacement at the times ``bbdyn simulate`` uses.  ``classify_features`` groups
+the trajectories into attractors, decides ergodicity and the regime, and gives
+each attractor its Einstein D (``attractor_D``, the estimator of ``bbdyn
+simulate`` over the attractor's particles) and energies; ``classify`` does both.
+The rules and every threshold are in ``Thresholds`` and in docs/classification.md.
 
 The flat ball is the billiard with a flat floor: R -> infinity (R = 1e9 mm
 reproduces the flat map's impact sequence, tests/test_billiard_limits.py), so
@@ -23,6 +25,7 @@ from dataclasses import asdict, dataclass
 import numpy as np
 
 from bbdyn.billiard import check_params
+from bbdyn.diffusion import einstein_D, einstein_D_windows, per_particle_slopes
 from bbdyn.ensemble import (
     Box,
     allocate,
@@ -32,6 +35,7 @@ from bbdyn.ensemble import (
     initial_conditions,
     kernel_states,
     numba_threads,
+    periods_phase,
     reference_box,
     run_chunked,
 )
@@ -45,7 +49,9 @@ __all__ = [
     "trajectory_features",
     "classify_features",
     "classify",
+    "attractor_D",
     "REGIMES",
+    "UNITS",
 ]
 
 REGIMES = {
@@ -59,6 +65,18 @@ REGIMES = {
 
 #: Block features compared between trajectories (names of FeatureResult.block_values).
 GROUP_FEATURES = ("E_kin", "collision_rate", "stuck_fraction", "tiny_fraction", "jump_rate")
+#: Displacement samples per trajectory, equally spaced over the run: the default of
+#: ``bbdyn.ensemble.ensemble``, so that an attractor's D is ``bbdyn simulate``'s estimator.
+SAMPLES = 101
+#: Energies of an attractor, time averages over the window (kg mm^2/s^2).
+ENERGIES = ("E", "E_kin", "E_x", "E_y", "E_pot")
+#: Units of the dimensioned numbers of ``Classification.summary`` (a key's ``_se`` and the
+#: entries of ``D_windows`` share its unit; fractions and counts are dimensionless).
+UNITS = {
+    "f": "Hz", "t": "s", "transient": "s", "D": "mm^2/s", "D_windows.t_centre": "s",
+    **{name: "kg mm^2/s^2" for name in ENERGIES}, "E_reference": "kg mm^2/s^2",
+    "jump_rate": "1/s", "collision_rate": "1/s",
+}  # fmt: skip
 
 
 @dataclass(frozen=True)
@@ -229,6 +247,12 @@ def trajectory_features(
         raise ValueError(f"blocks must be an integer >= 4, got {blocks}")
     run = check_run(params, t, float(t) / 2 if transient is None else transient, int(blocks))
     t, transient, p0, L = run.t, run.transient, run.p0, run.L
+    sample_times = np.linspace(start_phase / params.w, t, SAMPLES)
+    if np.count_nonzero(sample_times >= transient) < 2:
+        raise ValueError(
+            f"transient = {transient} s leaves fewer than 2 of the {SAMPLES} displacement "
+            f"samples in [transient, t = {t}] s; use transient <= {sample_times[-2]} s"
+        )
     ics, states, box_index, boxes = _states_from(params, boxes, n, seed, initial, start_phase)
     # ---- the features run: chunked (Ctrl-C stops it between chunks), size checked
     from bbdyn.core.ensemble import CARRY_WIDTH, CNT_WIDTH, new_carry
@@ -241,20 +265,21 @@ def trajectory_features(
         "kcount": ((m, int(th.kmax) + 1), float),
         "glob": ((m, core.G_WIDTH), float),
         "mismatch": ((m, int(th.pmax)), float),
-        "samples": ((m, int(blocks) + 1), float),
+        "displacement": ((m, SAMPLES), float),
         "counts": ((m, CNT_WIDTH), np.int64),
         "status": ((m,), np.int64),
     }
     limits = {"params": params, "n": m, "t": t}
     out = allocate(shapes, extra=m * 8 * (CARRY_WIDTH + 3 * int(th.pmax)), limits=limits)
     carry = new_carry(states, 0, int(th.pmax))
-    end = np.array([p0 + blocks * L, 0.0])
+    s_periods, s_phase = periods_phase(sample_times, params.f)
+    end = np.array([v[0] for v in periods_phase(np.array([t]), params.f)])
 
     def advance(budget):
         run_features(
             carry, budget, params.kernel(), end, p0, L, int(blocks), th.tiny, th.k_tol,
-            int(th.kmax), th.hist_width, out["samples"], out["counts"], out["blocks"], out["hist"],
-            out["kcount"], out["glob"], out["mismatch"], out["status"],
+            int(th.kmax), th.hist_width, s_periods, s_phase, out["displacement"], out["counts"],
+            out["blocks"], out["hist"], out["kcount"], out["glob"], out["mismatch"], out["status"],
         )  # fmt: skip
 
     start = time.perf_counter()
@@ -263,9 +288,9 @@ def trajectory_features(
     wall = time.perf_counter() - start
     # classify_features has no notion of a failed trajectory yet: a failure raises
     failed_particles(out["status"], ics, "raise")
-    del out["samples"], out["counts"]
+    del out["counts"]
     # ---- end of the features run
-    out.update(initial=ics, box_index=box_index)
+    out.update(initial=ics, box_index=box_index, sample_times=sample_times)
     meta = make_meta(
         params,
         seed=seed,
@@ -285,9 +310,11 @@ def trajectory_features(
 class FeatureResult(Result):
     """Per-trajectory features (``core/features.py``) of an ensemble, and how they were run.
 
-    Arrays: ``blocks`` (n, nb, 9), ``hist`` (n, nbins), ``kcount`` (n, kmax + 1),
+    Arrays: ``blocks`` (n, nb, 8), ``hist`` (n, nbins), ``kcount`` (n, kmax + 1),
     ``glob`` (n, 6), ``mismatch`` (n, pmax), ``initial`` (n, 3) ``(s, vx+, vy+)``,
-    ``box_index`` (n,) (-1 for given initial conditions), ``status`` (n,).
+    ``box_index`` (n,) (-1 for given initial conditions), ``status`` (n,),
+    ``sample_times`` (SAMPLES,) s from the start to t and ``displacement`` (n, SAMPLES)
+    ``x(t_k) - x(0)`` (mm).
     """
 
     kind = "trajectory_features"
@@ -296,13 +323,29 @@ class FeatureResult(Result):
     def params(self) -> Params:
         return Params(**self.meta["params"])
 
+    def block_energies(self) -> dict[str, np.ndarray]:
+        """Per-block time averages of ``ENERGIES`` (kg mm^2/s^2), shape (n, nb) each.
+
+        ``E_kin = E_x + E_y`` and ``E = E_kin + E_pot``; the blocks have equal length, so
+        their mean over the blocks is the time average over the window.
+        """
+        from bbdyn.core import features as core
+
+        b = self["blocks"]
+        block_s = self.meta["block_periods"] / self.params.f
+        cols = (("E_x", core.BF_EX), ("E_y", core.BF_EY), ("E_pot", core.BF_POT))
+        out = {name: b[..., col] / block_s for name, col in cols}
+        out["E_kin"] = out["E_x"] + out["E_y"]
+        out["E"] = out["E_kin"] + out["E_pot"]
+        return out
+
     def block_values(self) -> dict[str, np.ndarray]:
         """Per-block time averages, shape (n, nb) each, in scaled units.
 
-        ``E``, ``E_x``, ``E_y``, ``E_pot``, ``E_kin = E_x + E_y`` in units of A^2 w^2 / 2
-        (MODEL.md reference line); ``collision_rate`` and ``jump_rate`` per driving period;
-        ``stuck_fraction`` of the time; ``tiny_fraction`` and ``locked_fraction`` of the
-        collisions (0 when there is none); ``D`` (mm^2/s) the block's ``dx^2 / (2 L T)``.
+        ``ENERGIES`` in units of A^2 w^2 / 2 (MODEL.md reference line; kg mm^2/s^2 when
+        A = 0); ``collision_rate`` and ``jump_rate`` per driving period; ``stuck_fraction``
+        of the time; ``tiny_fraction`` and ``locked_fraction`` of the collisions (0 when
+        there is none).
         """
         from bbdyn.core import features as core
 
@@ -313,20 +356,19 @@ class FeatureResult(Result):
         e_ref = 0.5 * (p.A * p.w) ** 2 if p.A > 0 else 1.0
         coll = b[..., core.BF_COLL]
         safe = np.maximum(coll, 1.0)
-        out = {
-            "E_x": b[..., core.BF_EX] / block_s / e_ref,
-            "E_y": b[..., core.BF_EY] / block_s / e_ref,
-            "E_pot": b[..., core.BF_POT] / block_s / e_ref,
+        out = {name: v / e_ref for name, v in self.block_energies().items()}
+        out.update({
             "stuck_fraction": b[..., core.BF_STUCK] / block_s,
             "collision_rate": coll / L,
             "jump_rate": b[..., core.BF_JUMPS] / L,
             "tiny_fraction": b[..., core.BF_TINY] / safe,
             "locked_fraction": b[..., core.BF_LOCKED] / safe,
-            "D": b[..., core.BF_DISP] ** 2 / (2.0 * block_s),
-        }
-        out["E_kin"] = out["E_x"] + out["E_y"]
-        out["E"] = out["E_kin"] + out["E_pot"]
+        })  # fmt: skip
         return out
+
+    def D_window(self) -> tuple[float, float]:
+        """The Einstein D's window ``(transient / t, 1)``: fractions of t, as ``einstein_D``."""
+        return self.meta["transient"] / self.meta["t"], 1.0
 
     def per_particle(self) -> dict[str, np.ndarray]:
         """Time averages over the window and their standard errors (``name + "_se"``)."""
@@ -459,20 +501,22 @@ def classify_features(feat: FeatureResult, thresholds: Thresholds | None = None)
         order = [c for c in np.argsort(-sizes, kind="stable") if sizes[c] >= th.min_members]
         for new, c in enumerate(order):
             labels[idx[comp == c]] = new
+    times, disp, window = feat["sample_times"], feat["displacement"], feat.D_window()
+    averages = {name: v.mean(axis=1) for name, v in feat.block_energies().items()}
+    averages["stuck_fraction"] = pp["stuck_fraction"]
     attractors = []
     for a in range(labels.max() + 1):
         mem = np.flatnonzero(labels == a)
         att = {"fraction": mem.size / n, "members": int(mem.size)}
-        for name in ("E", "E_kin", "E_x", "E_y", "E_pot", "stuck_fraction", "tiny_fraction",
-                     "locked_fraction", "coherence", "flight_mean", "creep_run_mean"):  # fmt: skip
+        att.update(attractor_D(times, disp[mem], window))
+        for name, values in averages.items():
+            att[name], att[name + "_se"] = _mean_se(values[mem])
+        for name in ("tiny_fraction", "locked_fraction", "coherence", "flight_mean",
+                     "creep_run_mean"):  # fmt: skip
             att[name] = float(pp[name][mem].mean())
         att["jump_rate"] = float(pp["jump_rate"][mem].mean() * p.f)  # per second
         att["collision_rate"] = float(pp["collision_rate"][mem].mean() * p.f)
         att["creep_run_max"] = int(pp["creep_run_max"][mem].max())
-        att["D"] = float(pp["D"][mem].mean())
-        att["D_se"] = (
-            float(pp["D"][mem].std(ddof=1) / math.sqrt(mem.size)) if mem.size > 1 else math.nan
-        )
         att["period"] = _mode(pp["period"][mem]) or None
         att["dominant_k"] = _mode(pp["locking_k"][mem])
         att["trapped"] = att["jump_rate"] / p.f < th.trapped_jumps
@@ -523,6 +567,8 @@ def classify_features(feat: FeatureResult, thresholds: Thresholds | None = None)
         },  # fmt: skip
         "n_attractors": len(attractors),
         "attractors": attractors,
+        "E_reference": 0.5 * (p.A * p.w) ** 2,
+        "units": UNITS,
         "unsettled_fraction": unsettled,
         "n": n,
         "t": feat.meta["t"],
@@ -534,9 +580,48 @@ def classify_features(feat: FeatureResult, thresholds: Thresholds | None = None)
     meta = make_meta(p, seed=feat.meta.get("seed"), summary=summary)
     arrays = {"labels": labels, "initial": feat["initial"], "box_index": feat["box_index"]}
     for name in ("E", "E_kin", "tiny_fraction", "locked_fraction", "jump_rate",
-                 "stuck_fraction", "D", "period", "locking_k", "coherence"):  # fmt: skip
+                 "stuck_fraction", "period", "locking_k", "coherence"):  # fmt: skip
         arrays[name] = pp[name]
+    arrays["D"] = 0.5 * per_particle_slopes(times, disp, window)
     return Classification(arrays, meta)
+
+
+def attractor_D(times, displacement, window=(0.5, 1.0)) -> dict:
+    """Einstein D of a group of trajectories (an attractor), as ``bbdyn simulate`` gives it.
+
+    ``D`` and ``D_se`` (mm^2/s): ``bbdyn.diffusion.einstein_D``, the least-squares slope / 2
+    of the group's mean squared displacement over ``window`` (fractions of the last sample
+    time), with the standard error over trajectories; ``D_windows``: ``t_centre`` (s), ``D``
+    and ``D_se`` in four successive windows from 0.2 t (``einstein_D_windows``), the
+    evidence that D has converged.  A group of one trajectory has no standard error: all NaN.
+
+    Parameters
+    ----------
+    times : array (m,)
+        Sample times (s).
+    displacement : array (k, m)
+        ``x(t) - x(0)`` (mm) of the group's trajectories at ``times``.
+    window : (float, float)
+        As in ``einstein_D``.
+    """
+    if displacement.shape[0] < 2:
+        nan = [math.nan] * 4
+        return {"D": math.nan, "D_se": math.nan,
+                "D_windows": {"t_centre": nan, "D": nan, "D_se": nan}}  # fmt: skip
+    D, se = einstein_D(times, displacement, window)
+    centres, D_w, se_w = einstein_D_windows(times, displacement)
+    return {
+        "D": float(D),
+        "D_se": float(se),
+        "D_windows": {"t_centre": centres.tolist(), "D": D_w.tolist(), "D_se": se_w.tolist()},
+    }
+
+
+def _mean_se(values):
+    """Mean over trajectories and its standard error (NaN for one trajectory), as floats."""
+    if values.size < 2:
+        return float(values.mean()), math.nan
+    return float(values.mean()), float(values.std(ddof=1) / math.sqrt(values.size))
 
 
 def _regime(attractors, unsettled, th):

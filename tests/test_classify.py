@@ -6,13 +6,23 @@ reproduces the flat map's impact sequence); the k/1 tongue edges come from bbdyn
 
 import json
 import math
+from dataclasses import asdict
 
 import numpy as np
 import pytest
 
 from bbdyn import Params
-from bbdyn.classify import Thresholds, classify, classify_features, trajectory_features
+from bbdyn.classify import (
+    FeatureResult,
+    Thresholds,
+    attractor_D,
+    classify,
+    classify_features,
+    trajectory_features,
+)
 from bbdyn.cli import main
+from bbdyn.core import features as core
+from bbdyn.results import make_meta
 from bbdyn.tongues import k1_orbit, params_at_gamma, tongue_gamma_hi, tongue_gamma_lo
 
 FLAT_R = 1e9
@@ -117,3 +127,113 @@ def test_classify_command_json(capsys):
     for key in ("fraction", "locking_k", "period", "stuck_fraction", "jump_rate", "D"):
         assert key in out["attractors"][0]
     assert "unsettled_fraction" in out
+
+
+# ---- constructed features: known attractors, known D --------------------------------------
+def _constructed(times, disp, unsettled=(), nb=16, L=10.0):
+    """Features of ``disp.shape[0]`` trajectories that all agree on every compared average,
+    except ``unsettled`` ones, whose collision rate triples from the first to the second half
+    of the window (so they fail the settling test).  Window ``[t / 2, t]``."""
+    params = Params(f=50.0)
+    n = disp.shape[0]
+    block_s = L / params.f
+    blocks = np.zeros((n, nb, core.BF_WIDTH))
+    for col, value in ((core.BF_EX, 300.0), (core.BF_EY, 500.0), (core.BF_POT, 200.0)):
+        blocks[..., col] = value * block_s  # time averages in kg mm^2/s^2
+    blocks[..., core.BF_COLL] = 10.0
+    blocks[..., core.BF_LOCKED] = 10.0
+    blocks[..., core.BF_JUMPS] = 2.0
+    blocks[list(unsettled), nb // 2 :, core.BF_COLL] = 30.0
+    th = Thresholds()
+    arrays = {
+        "blocks": blocks,
+        "hist": np.zeros((n, int(round(10.0 / th.hist_width)) + 1)),
+        "kcount": np.zeros((n, th.kmax + 1)),
+        "glob": np.zeros((n, core.G_WIDTH)),
+        "mismatch": np.full((n, th.pmax), np.inf),
+        "initial": np.zeros((n, 3)),
+        "box_index": np.zeros(n, dtype=int),
+        "status": np.zeros(n, dtype=np.int64),
+        "sample_times": times,
+        "displacement": disp,
+    }
+    t = float(times[-1])
+    meta = make_meta(
+        params, seed=0, wall_s=0.0, t=t, n=n, transient=t / 2, window_periods=[0.0, nb * L],
+        block_periods=L, thresholds=asdict(th),
+    )  # fmt: skip
+    return FeatureResult(arrays, meta)
+
+
+def _persistent_walk(n, steps, p, d, tau, seed=0, samples=101):
+    """Persistent random walks: jumps of +-d every tau, the same direction again with
+    probability p; stationary start.  Sample times (s) and displacements (mm)."""
+    rng = np.random.default_rng(seed)
+    flips = np.where(rng.random((n, steps)) < p, 1, -1)
+    flips[:, 0] = rng.choice((-1, 1), n)
+    x = np.concatenate([np.zeros((n, 1)), d * np.cumsum(np.cumprod(flips, axis=1), axis=1)], axis=1)
+    k = np.linspace(0, steps, samples).round().astype(int)
+    return k * tau, x[:, k]
+
+
+def test_attractor_D_of_a_persistent_walk_is_the_long_time_D():
+    """Jumps d every tau, persistence p: D_inf = D_0 (1 + q) / (1 - q), q = 2 p - 1, D_0 =
+    d^2 / (2 tau); the attractor's D (and each convergence window) finds D_inf, not D_0."""
+    p, d, tau = 0.8, 1.5, 0.25
+    q = 2 * p - 1
+    D_0 = d**2 / (2 * tau)
+    D_inf = D_0 * (1 + q) / (1 - q)
+    times, disp = _persistent_walk(n=1500, steps=2000, p=p, d=d, tau=tau)
+    s = classify_features(_constructed(times, disp)).summary
+    (att,) = s["attractors"]
+    assert att["fraction"] == 1.0
+    assert abs(att["D"] - D_inf) <= 4 * att["D_se"]
+    assert abs(att["D"] - D_0) > 4 * att["D_se"]
+    w = att["D_windows"]
+    for D, se in zip(w["D"], w["D_se"], strict=True):
+        assert abs(D - D_inf) <= 4 * se
+    assert att == {**att, **attractor_D(times, disp)}
+
+
+def test_basin_fractions_count_unsettled_trajectories():
+    """Fractions are members / n (not / settled): with 5 of 20 unsettled, one attractor of
+    15 has fraction 0.75, and fractions + unsettled fraction = 1."""
+    times, disp = _persistent_walk(n=20, steps=200, p=0.5, d=1.0, tau=0.1, seed=1)
+    c = classify_features(_constructed(times, disp, unsettled=range(5)))
+    s = c.summary
+    assert np.array_equal(c["labels"], [-1] * 5 + [0] * 15)
+    (att,) = s["attractors"]
+    assert att["members"] == 15 and att["fraction"] == 0.75
+    assert s["unsettled_fraction"] == 0.25
+    assert _fractions_sum_to_one(s)
+
+
+def test_attractor_energies_are_physical_time_averages():
+    """E, E_x, E_y, E_pot in kg mm^2/s^2 (the constructed blocks hold 300, 500, 200),
+    E_kin = E_x + E_y, E = E_kin + E_pot, with units named in the summary."""
+    times, disp = _persistent_walk(n=10, steps=200, p=0.5, d=1.0, tau=0.1, seed=2)
+    s = classify_features(_constructed(times, disp)).summary
+    (att,) = s["attractors"]
+    expected = {"E_x": 300.0, "E_y": 500.0, "E_pot": 200.0, "E_kin": 800.0, "E": 1000.0}
+    for name, value in expected.items():
+        assert att[name] == pytest.approx(value, rel=1e-12)
+        assert att[name + "_se"] == pytest.approx(0.0, abs=1e-9)
+        assert s["units"][name] == "kg mm^2/s^2"
+    assert s["units"]["D"] == "mm^2/s"
+
+
+def test_attractor_D_equals_simulate_D_on_the_same_ensemble(capsys):
+    """85.2 Hz, one attractor holding the whole ensemble: classify's D and its windows are
+    simulate's numbers (same seed, same particles, same estimator); energies agree within
+    errors (simulate over the same window)."""
+    args = ["--n", "16", "--t", "4", "--seed", "1", "--json", "--threads", "1"]
+    assert main(["classify", "85.2", *args]) == 0
+    c = json.loads(capsys.readouterr().out)
+    assert main(["simulate", "--f", "85.2", *args, "--transient", "2"]) == 0
+    s = json.loads(capsys.readouterr().out)
+    (att,) = c["attractors"]
+    assert att["fraction"] == 1.0
+    assert (att["D"], att["D_se"]) == (s["D"], s["D_se"])
+    assert att["D_windows"] == s["D_windows"]
+    for name in ("E", "E_x", "E_y", "E_pot"):
+        assert abs(att[name] - s[name]) <= math.hypot(att[name + "_se"], s[name + "_se"])

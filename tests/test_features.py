@@ -15,7 +15,7 @@ from bbdyn.classify import Thresholds, trajectory_features
 from bbdyn.core import features as core
 from bbdyn.core.observables import trap_of
 from bbdyn.core.plate import TWO_PI, release_window
-from bbdyn.core.status import STICK
+from bbdyn.core.status import IMPACT, STICK
 from bbdyn.core.tolerances import OBS_INTEGRAL_REL_TOL
 from bbdyn.ensemble import ensemble
 
@@ -119,15 +119,13 @@ def test_block_integrals_sum_to_the_ensemble_integrals(runs):
     np.testing.assert_array_equal(b[:, core.BF_JUMPS], ens["jumps"])
 
 
-def test_block_displacements_add_up_to_the_window_displacement(runs):
+def test_displacement_samples_equal_the_ensemble_displacements(runs):
+    """The features run samples x - x(0) at the ensemble's default times, bit for bit."""
     params, feat, _ = runs
-    p0, p1 = feat.meta["window_periods"]
-    ens = ensemble(
-        params, t=T, n=N, seed=3, transient=TRANSIENT, observables=("displacement",),
-        sample_times=np.array([p0 / F, p1 / F]),
-    )  # fmt: skip
-    total = feat["blocks"][:, :, core.BF_DISP].sum(axis=1)
-    np.testing.assert_allclose(total, np.diff(ens["displacement"], axis=1)[:, 0], atol=1e-9)
+    ens = ensemble(params, t=T, n=N, seed=3, observables=("displacement",))
+    np.testing.assert_array_equal(feat["sample_times"], ens["sample_times"])
+    np.testing.assert_array_equal(feat["displacement"], ens["displacement"])
+    assert np.any(feat["displacement"][:, -1] != 0.0)
 
 
 def test_features_do_not_depend_on_threads():
@@ -136,3 +134,26 @@ def test_features_do_not_depend_on_threads():
     b = trajectory_features(params, t=1.0, n=8, seed=5, threads=2)
     for key in ("blocks", "hist", "kcount", "glob", "mismatch"):
         np.testing.assert_array_equal(a[key], b[key])
+
+
+@pytest.mark.parametrize(("other_phase", "periodic"), [(TWO_PI - 1e-9, True), (math.pi, False)])
+def test_period_1_across_phase_zero(other_phase, periodic):
+    """A 1/1 orbit whose impacts straddle phase 0 (at 1e-9 and 2 pi - 1e-9 rad) is periodic:
+    the phase difference is taken modulo 2 pi.  Control: alternating with pi is not."""
+    params = Params(f=60.0)
+    th = Thresholds()
+    fpar = (th.tiny, th.k_tol, th.kmax, th.hist_width)
+    blocks = np.zeros((1, core.BF_WIDTH))
+    hist, kcount = np.zeros(int(round(10.0 / th.hist_width)) + 1), np.zeros(th.kmax + 1)
+    glob, mism, ring = np.zeros(core.G_WIDTH), np.zeros(th.pmax), np.zeros((th.pmax, 3))
+    n_ring = run = 0
+    for c in range(40):
+        phase = 1e-9 if c % 2 == 0 else other_phase
+        n_ring, run = core.feature_collision(
+            blocks, 0, hist, kcount, glob, mism, ring, n_ring, run, phase, 100.0, IMPACT, 1.0,
+            False, fpar, params.kernel(),
+        )  # fmt: skip
+    expected = 2e-9 / TWO_PI if periodic else 0.5 - 1e-9 / TWO_PI
+    assert mism[0] == pytest.approx(expected, rel=1e-6)
+    assert mism[1] == pytest.approx(0.0, abs=1e-15)  # lag 2 compares equal phases
+    assert (mism[0] <= th.period_tol) == periodic

@@ -2,7 +2,9 @@
 
 Runs ``bbdyn.classify.classify`` and prints the verdict and its evidence: the
 regime (MODEL.md section 5), ergodicity with its numbers, and each attractor with
-its basin fraction, locking, period, stuck fraction, jump rate, D and energies.
+its basin fraction, locking, period, stuck fraction, jump rate, its Einstein D (the
+estimator of ``bbdyn simulate`` over the attractor's particles, with D in successive
+windows) and its energies (kg mm^2/s^2).
 """
 
 HELP = "classify the dynamics at one frequency: attractors, basins, ergodicity, regime"
@@ -124,11 +126,24 @@ def run(args) -> int:
           f"{e['unsettled_fraction']:.3g}, reduced chi2 [{chi2}] "
           f"(<= {e['max_reduced_chi2']})")  # fmt: skip
     for a, att in enumerate(out["attractors"]):
-        print(f"  attractor {a}: fraction {att['fraction']:.3f}, {att['character']}, "
-              f"locking_k {att['locking_k']}, period {att['period']}, "
-              f"stuck {att['stuck_fraction']:.3g}, tiny hops {att['tiny_fraction']:.3g}, "
-              f"locked flights {att['locked_fraction']:.3g}, jump rate {att['jump_rate']:.3g}/s, "
-              f"D {att['D']:.3g} +- {att['D_se']:.2g} mm^2/s, "
-              f"<E> {att['E']:.3g} A^2w^2/2")  # fmt: skip
+        print_attractor(a, att, out["units"])
     print(f"  wall time {out['wall_s']:.2f} s")
     return 0
+
+
+def print_attractor(a: int, att: dict, units: dict) -> None:
+    """Print attractor ``a`` of a classification summary: its character, D and energies."""
+    print(f"  attractor {a}: fraction {att['fraction']:.3f}, {att['character']}, "
+          f"locking_k {att['locking_k']}, period {att['period']}, "
+          f"stuck {att['stuck_fraction']:.3g}, tiny hops {att['tiny_fraction']:.3g}, "
+          f"locked flights {att['locked_fraction']:.3g}, "
+          f"jump rate {att['jump_rate']:.3g}/s")  # fmt: skip
+    w = att["D_windows"]
+    by_window = ", ".join(f"{d:.3g}+-{s:.2g}" for d, s in zip(w["D"], w["D_se"], strict=True))
+    print(f"    D = {att['D']:.4g} +- {att['D_se']:.2g} {units['D']} "
+          f"(by window from 0.2 t: {by_window})")  # fmt: skip
+    energies = ", ".join(
+        f"{name} {att[name]:.5g} +- {att[name + '_se']:.2g}"
+        for name in ("E", "E_x", "E_y", "E_pot")
+    )
+    print(f"    {energies} {units['E']}")

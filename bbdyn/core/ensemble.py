@@ -496,7 +496,7 @@ def particle_loop(
             disp[kk] = math.nan
         return status
     if do_feat:
-        feature_finish(acc, glob, mism, n_ring, run, disp)
+        feature_finish(glob, mism, n_ring, run)
     return status
 
 
@@ -571,8 +571,8 @@ def run_ensemble(
 
 @njit(cache=True, parallel=True)
 def run_features(
-    carry, budget, kp, end, p0, L, nb, tiny, k_tol, kmax, hist_width, samples, counts, blocks,
-    hist, kcount, glob, mism, status,
+    carry, budget, kp, end, p0, L, nb, tiny, k_tol, kmax, hist_width, sample_periods,
+    sample_phase, disp, counts, blocks, hist, kcount, glob, mism, status,
 ):  # fmt: skip
     """Advance every running particle by at most ``budget`` events, filling the features.
 
@@ -599,8 +599,10 @@ def run_features(
         Largest locking number counted.
     hist_width : float
         Width (periods) of the flight-time histogram bins.
-    samples : array, shape (n, nb + 1)
-        Positions ``x - x(0)`` (mm) at the block boundaries (the loop's samples).
+    sample_periods, sample_phase : arrays, shape (m,)
+        Sample times of the displacement, sorted, within ``[0, end]``.
+    disp : array, shape (n, m)
+        ``x(t_k) - x(0)`` (mm) at the sample times.
     counts : int64 array, shape (n, CNT_WIDTH)
         The loop's counts; zero on entry.
     blocks, hist, kcount, glob, mism : arrays
@@ -609,8 +611,6 @@ def run_features(
     status : int64 array, shape (n,)
         As in ``run_ensemble``.
     """
-    bounds = p0 + np.arange(nb + 1) * L
-    bound_phase = np.zeros(nb + 1)
     no_record = np.zeros(4)
     fpar = (tiny, k_tol, kmax, hist_width)
     flags = OBS_DISPLACEMENT | OBS_ENERGY | OBS_FEATURES
@@ -619,7 +619,7 @@ def run_features(
             continue
         status[i] = particle_loop(
             carry.state[i], carry.rel[i], carry.rel_acc[i], carry.rel_cnt[i], carry.ring[i],
-            budget, kp, end, (p0, L, nb), bounds, bound_phase, no_record, flags, fpar,
-            blocks[i], samples[i], counts[i], np.zeros(0, dtype=np.int64), np.zeros(0),
+            budget, kp, end, (p0, L, nb), sample_periods, sample_phase, no_record, flags, fpar,
+            blocks[i], disp[i], counts[i], np.zeros(0, dtype=np.int64), np.zeros(0),
             np.zeros((0, REC_WIDTH)), np.zeros(7), hist[i], kcount[i], glob[i], mism[i],
         )  # fmt: skip

@@ -7,13 +7,14 @@ module holds the feature accumulators it calls at each collision in the window
 accumulated on the way, after a transient, so memory is proportional to the
 ensemble, not to the run.  The loop integrates energies and stuck time per block
 with ``core.ensemble.accumulate_interval`` (exact over flights and stuck
-intervals) and samples the position at the block boundaries.
+intervals); the positions at given sample times (for the Einstein D) are the
+loop's own displacement samples.
 
 The averaging window ``[p0, p0 + nb L]`` (whole driving periods) is cut into
 ``nb`` blocks of ``L`` periods.  Per block (array ``blocks``, columns ``BF_*``):
 the integrals of E_x, E_y, g y and the stuck time, the numbers of collisions,
-tiny hops, trap changes (jumps) and locked flights, and the displacement over
-the block.  Block values give each time average its statistical fluctuation.
+tiny hops, trap changes (jumps) and locked flights.  Block values give each time
+average its statistical fluctuation.
 
 Per particle, over the window:
 
@@ -41,8 +42,8 @@ from bbdyn.core.plate import TWO_PI
 
 #: Columns of ``blocks`` (the first four are those of ``core.ensemble.ACC_*``).
 BF_EX, BF_EY, BF_POT, BF_STUCK = 0, 1, 2, 3
-BF_COLL, BF_TINY, BF_JUMPS, BF_LOCKED, BF_DISP = 4, 5, 6, 7, 8
-BF_WIDTH = 9
+BF_COLL, BF_TINY, BF_JUMPS, BF_LOCKED = 4, 5, 6, 7
+BF_WIDTH = 8
 #: Columns of ``glob``.
 G_COS, G_SIN, G_TF, G_TF2, G_RUNS, G_RUNMAX = 0, 1, 2, 3, 4, 5
 G_WIDTH = 6
@@ -132,12 +133,11 @@ def feature_collision(
 
 
 @njit(cache=True)
-def feature_finish(blocks, glob, mism, n_ring, run, pos):
+def feature_finish(glob, mism, n_ring, run):
     """Close the features of one particle at the end of its run.
 
-    Ends the last tiny-hop run, marks the lags never compared (``mism`` inf: no
-    evidence) and turns the positions ``pos`` (mm, shape (nb + 1,)) at the block
-    boundaries into block displacements.
+    Ends the last tiny-hop run and marks the lags never compared (``mism`` inf: no
+    evidence).
     """
     if run > 0:
         glob[G_RUNS] += 1.0
@@ -145,5 +145,3 @@ def feature_finish(blocks, glob, mism, n_ring, run, pos):
     pmax = mism.shape[0]
     for p in range(min(max(n_ring - 1, 0), pmax), pmax):
         mism[p] = math.inf
-    for j in range(blocks.shape[0]):
-        blocks[j, BF_DISP] = pos[j + 1] - pos[j]
