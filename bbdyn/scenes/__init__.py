@@ -1,4 +1,4 @@
-"""Scenes (SCENES.md): one module per figure or analysis.
+"""Scenes: one module per figure or analysis of the reference paper (S1-S10) and beyond (B1, B3).
 
 Each scene module defines
 
