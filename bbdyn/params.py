@@ -70,7 +70,7 @@ class Params:
     --------
     >>> p = Params(f=58.0)
     >>> round(p.gamma, 4)
-    1.3556
+    1.3552
     >>> Params(f=58.0, alpha=1.2)
     Traceback (most recent call last):
     ...
