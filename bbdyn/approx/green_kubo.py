@@ -83,15 +83,16 @@ def _per_particle(data: JumpData, nmax: int, table_len: int):
         windows = counts - k
         has = windows > 0
         # pairs (j, j + k) inside one particle: the CSR blocks are contiguous
-        same = pid[: jumps.size - k] == pid[k:]
-        owner = pid[: jumps.size - k][same]
-        prod = (jumps[: jumps.size - k] * jumps[k:])[same].astype(np.float64)
+        m = max(jumps.size - k, 0)  # no pair at all beyond the total number of jumps
+        same = pid[:m] == pid[k:]
+        owner = pid[:m][same]
+        prod = (jumps[:m] * jumps[k:])[same].astype(np.float64)
         sums = np.bincount(owner, weights=prod, minlength=n_part)
         corr[has, k] = sums[has] / windows[has]
         if k == 0 or k > n_sym:
             continue
         # append symbol k (1 = backward relative to h_0) as the least significant bit
-        code = 2 * code[: jumps.size - k] + (sgn[k:] != sgn[: jumps.size - k])
+        code = 2 * code[:m] + (sgn[k:] != sgn[:m])
         hist = np.bincount(owner * 2**k + code[same], minlength=n_part * 2**k)
         probs = np.full((n_part, 2**k), np.nan)
         probs[has] = hist.reshape(n_part, 2**k)[has] / windows[has, None]

@@ -166,9 +166,11 @@ def analytic_diffusion(params: Params, r: float, r_err: float = 0.0) -> Analytic
     params : Params
         Uses ``A`` (mm), ``w`` (rad/s), ``g`` (mm/s^2), ``d`` (mm).
     r : float
-        ``E_y / E_x`` (>= 0), measured (``energy_ratio``) or given.
+        ``E_y / E_x`` (>= 0, or inf: then ``D_a = 0`` for Gamma >= 2), measured
+        (``energy_ratio``) or given.
     r_err : float
-        Standard error of ``r`` (>= 0), propagated: ``dD_a/dr = -D_a / (2 (1 + r))``.
+        Standard error of ``r`` (>= 0, or NaN if unknown: then ``D_a_err`` is NaN),
+        propagated: ``dD_a/dr = -D_a / (2 (1 + r))``.
 
     Returns
     -------
@@ -184,10 +186,10 @@ def analytic_diffusion(params: Params, r: float, r_err: float = 0.0) -> Analytic
     if not isinstance(params, Params):
         raise ValueError(f"params must be a bbdyn.Params, got {type(params).__name__}")
     r, r_err = float(r), float(r_err)
-    if not (math.isfinite(r) and r >= 0):
-        raise ValueError(f"r must be finite and >= 0, got {r}")
-    if not (math.isfinite(r_err) and r_err >= 0):
-        raise ValueError(f"r_err must be finite and >= 0, got {r_err}")
+    if not r >= 0:  # inf is allowed: no horizontal kinetic energy, D_a = 0
+        raise ValueError(f"r must be finite and >= 0, or inf (E_x = 0), got {r}")
+    if not (math.isnan(r_err) or (math.isfinite(r_err) and r_err >= 0)):  # NaN: unknown
+        raise ValueError(f"r_err must be finite and >= 0 (or NaN: unknown), got {r_err}")
     A, w, g, d = params.A, params.w, params.g, params.d
     surplus = A**2 * w**2 - 2.0 * g * A  # twice the kinetic energy left by the balance
     if surplus < 0:
@@ -209,7 +211,8 @@ def energy_ratio(E_x, E_y, E_x_err=None, E_y_err=None) -> EnergyRatio:
     * per-particle time averages ``E_x``, ``E_y`` (1-D arrays of equal length
       >= 2, mm^2/s^2; no errors given): ``r = mean(E_y) / mean(E_x)`` with the
       delta-method error of a ratio of means, including their covariance,
-      ``r_err^2 = var(E_y - r E_x) / (N mean(E_x)^2)``;
+      ``r_err^2 = var(E_y - r E_x) / (N mean(E_x)^2)``; when every ``E_x`` is 0 (no
+      horizontal motion) ``r`` is inf (NaN if every ``E_y`` is 0 too) and ``r_err`` NaN;
     * ensemble means ``E_x``, ``E_y`` (floats) with standard errors
       ``E_x_err``, ``E_y_err``, taken as independent:
       ``r_err = sqrt(E_y_err^2 + r^2 E_x_err^2) / E_x``.
@@ -225,8 +228,10 @@ def energy_ratio(E_x, E_y, E_x_err=None, E_y_err=None) -> EnergyRatio:
                 "per-particle E_x and E_y must be 1-D arrays of equal length >= 2, "
                 f"got shapes {e_x.shape} and {e_y.shape}"
             )
-        if np.any(e_x < 0) or e_x.mean() <= 0:
-            raise ValueError("E_x must be >= 0 with a positive mean")
+        if np.any(e_x < 0):
+            raise ValueError(f"E_x must be >= 0 mm^2/s^2, got min {e_x.min()}")
+        if e_x.mean() == 0:  # no horizontal motion (e.g. all stuck at Gamma <= 1)
+            return EnergyRatio(math.inf if e_y.mean() > 0 else math.nan, math.nan)
         r = e_y.mean() / e_x.mean()
         r_err = np.std(e_y - r * e_x, ddof=1) / (math.sqrt(e_x.size) * e_x.mean())
         return EnergyRatio(float(r), float(r_err))
