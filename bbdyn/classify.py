@@ -270,7 +270,7 @@ def trajectory_features(
         "status": ((m,), np.int64),
     }
     limits = {"params": params, "n": m, "t": t}
-    out = allocate(shapes, extra=m * 8 * (CARRY_WIDTH + 3 * int(th.pmax)), limits=limits)
+    out, _ = allocate(shapes, extra=m * 8 * (CARRY_WIDTH + 3 * int(th.pmax)), limits=limits)
     carry = new_carry(states, 0, int(th.pmax))
     s_periods, s_phase = periods_phase(sample_times, params.f)
     end = np.array([v[0] for v in periods_phase(np.array([t]), params.f)])

@@ -132,17 +132,23 @@ def numba_threads(threads: int | None):
 #: standard error over particles (sample standard deviation), which needs two.
 N_MIN = 2
 #: Conservative rate model for size estimates: events (impacts, sticks, releases) per
-#: particle and per driving period, an upper bound of the measured rates with margin
-#: (see ``docs/diffusion.md``; ``tests/test_run_limits.py`` checks it over 30-100 Hz).
-EVENTS_PER_PERIOD = 4.0
-#: CPU time per event and thread (s) for the time estimate, measured ~0.35 us at 85.2 Hz.
+#: particle and per driving period.  Measured at the reference parameters over 30-100 Hz
+#: without fast-forward: at most 27 (62.5 Hz; about 1300 collisions per particle per s
+#: at 50-62 Hz), below 9 above 64 Hz, 0.1 below Gamma = 1 (``tests/test_run_limits.py``
+#: checks the bound).  Other parameters can differ: the estimate is then rougher.
+EVENTS_PER_PERIOD = 50.0
+#: CPU time per event and thread (s) for the time estimate, measured 0.2-0.4 us at
+#: 58-85 Hz on the reference machine.
 EVENT_COST_S = 0.5e-6
-#: Refuse runs estimated above this many events (about 14 h of one thread) unless the
-#: caller raises ``max_events``.
-MAX_EVENTS = 1e11
+#: Refuse runs estimated above this many events (at most about 140 h of one thread by
+#: the estimate; real runs make fewer events) unless the caller raises ``max_events``.
+MAX_EVENTS = 1e12
 #: Refuse runs whose arrays would take more than this many bytes unless the caller
 #: raises ``max_bytes``.
 MAX_BYTES = 4 * 2**30
+#: Longest run in driving periods: times are kept as (whole periods, phase), and whole
+#: numbers are exact in a float below 2^52 (``core.ensemble.fast_forward`` relies on it).
+MAX_PERIODS = 2.0**52
 #: Events per chunk, summed over the particles of a run: the kernels return to Python
 #: (where Ctrl-C is handled and progress reported) about every CHUNK_EVENTS * EVENT_COST_S
 #: / threads seconds (a fraction of a second).
@@ -174,7 +180,8 @@ def check_n(n) -> int:
 
 
 def check_run(params: Params, t, transient, blocks: int = 1) -> RunWindow:
-    """Validate the run time ``t`` (s) and ``transient`` (s) and cut the averaging window.
+    """Validate the run time ``t`` (s, at most ``MAX_PERIODS`` periods) and ``transient`` (s);
+    cut the averaging window.
 
     The window covers ``blocks`` blocks of ``L = floor((floor(t f) - p0) / blocks)`` whole
     periods from ``p0 = ceil(transient f)``; ``L >= 1`` is required.
@@ -182,6 +189,11 @@ def check_run(params: Params, t, transient, blocks: int = 1) -> RunWindow:
     t = float(t)
     if not (math.isfinite(t) and t > 0):
         raise ValueError(f"t must be a finite time > 0 s, got {t}")
+    if not t * params.f <= MAX_PERIODS:
+        raise ValueError(
+            f"t must be at most 2^52 driving periods = {MAX_PERIODS / params.f:.4g} s at "
+            f"f = {params.f} Hz (times are whole periods plus a phase, exact below 2^52), got {t}"
+        )
     transient = float(transient)
     if not 0.0 <= transient < t:
         raise ValueError(f"transient must be in [0, t = {t}) s, got {transient}")
@@ -209,7 +221,7 @@ def check_size(
     est = {"events": events, "cpu_s": events * EVENT_COST_S, "bytes": float(nbytes)}
     said = (
         f"n = {n} particles for t = {t:g} s at f = {params.f} Hz: up to {events:.3g} events, "
-        f"about {_duration(est['cpu_s'])} of CPU time, {nbytes / 2**30:.3g} GiB of arrays"
+        f"up to about {est['cpu_s'] / 3600:.3g} h of CPU time, {nbytes / 2**30:.3g} GiB of arrays"
     )
     if not events <= max_events:
         raise ValueError(
@@ -224,24 +236,15 @@ def check_size(
     return est
 
 
-def _duration(seconds: float) -> str:
-    """A rough duration: seconds, hours or years."""
-    if seconds < 3600:
-        return f"{seconds:.2g} s"
-    if seconds < 3.2e7:
-        return f"{seconds / 3600:.3g} h"
-    return f"{seconds / 3.156e7:.3g} years"
-
-
-def allocate(shapes: dict[str, tuple], *, extra: float, limits: dict) -> dict[str, np.ndarray]:
+def allocate(shapes: dict[str, tuple], *, extra: float, limits: dict) -> tuple[dict, dict]:
     """Zero arrays of ``shapes`` (name -> (shape, dtype)) once ``check_size`` accepts them.
 
     ``extra`` (bytes) counts the other arrays of the run; ``limits`` are the other
-    arguments of ``check_size``.
+    arguments of ``check_size``.  Returns the arrays and ``check_size``'s estimate.
     """
     nbytes = sum(math.prod(shape) * np.dtype(dtype).itemsize for shape, dtype in shapes.values())
-    check_size(nbytes=nbytes + extra, **limits)
-    return {name: np.zeros(shape, dtype) for name, (shape, dtype) in shapes.items()}
+    estimate = check_size(nbytes=nbytes + extra, **limits)
+    return {name: np.zeros(shape, dtype) for name, (shape, dtype) in shapes.items()}, estimate
 
 
 # ---- chunked runs and failed particles -----------------------------------------------------
@@ -289,7 +292,8 @@ def failed_particles(status: np.ndarray, ics: np.ndarray, on_failure: str) -> di
     i = failed[0]
     said = (
         f"{failed.size} of {status.size} particle(s) failed ({out['failures']}), e.g. particle "
-        f"{i} from (s, vx, vy) = {tuple(ics[i])}: {STATUS_MESSAGES[int(status[i])]}"
+        f"{i} from (s, vx, vy) = {tuple(float(v) for v in ics[i])}: "
+        f"{STATUS_MESSAGES[int(status[i])]}"
     )
     if on_failure == "raise" or failed.size == status.size:
         raise SimulationError(said)
@@ -434,7 +438,7 @@ def ensemble(
     n_rec = min(int(record_particles), n) if "record" in observables else 0
     rec_cap = int(record_capacity) if n_rec else 0
     lags = core.FF_LAGS if fast_forward else 0
-    out = allocate(
+    out, estimate = allocate(
         {
             "disp": ((n, s_periods.size), float),
             "acc": ((n, 1, 4), float),  # one block: the energy window
@@ -508,6 +512,7 @@ def ensemble(
         threads=used_threads,
         fast_forward=bool(fast_forward),
         box=None if initial is not None else vars(box or reference_box(params)),
+        estimate=estimate,
         **failed,
     )
     return EnsembleResult(arrays, meta)
