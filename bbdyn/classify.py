@@ -1,4 +1,4 @@
-"""Attractors, basins, ergodicity and the dynamical regime at one frequency (MODEL.md section 5).
+"""Attractors, basins, ergodicity and the dynamical regime at one frequency (docs/model.md, 5).
 
 ``trajectory_features`` runs an ensemble (one or several boxes of initial
 conditions, or given ones) and measures per-trajectory features after a
@@ -342,7 +342,7 @@ class FeatureResult(Result):
     def block_values(self) -> dict[str, np.ndarray]:
         """Per-block time averages, shape (n, nb) each, in scaled units.
 
-        ``ENERGIES`` in units of A^2 w^2 / 2 (MODEL.md reference line; kg mm^2/s^2 when
+        ``ENERGIES`` in units of A^2 w^2 / 2 (docs/model.md; kg mm^2/s^2 when
         A = 0); ``collision_rate`` and ``jump_rate`` per driving period; ``stuck_fraction``
         of the time; ``tiny_fraction`` and ``locked_fraction`` of the collisions (0 when
         there is none).
@@ -475,6 +475,9 @@ def classify_features(feat: FeatureResult, thresholds: Thresholds | None = None)
     settled trajectories whose averages pairwise agree (``Thresholds.z``, ``abs_tol``) are
     linked, and each connected group of at least ``min_members`` is an attractor; the
     others get label -1 (unsettled).  Basin fractions and the unsettled fraction sum to one.
+    Each attractor gets its Einstein D (``attractor_D`` over its trajectories, window
+    ``FeatureResult.D_window``), energies (kg mm^2/s^2) and stuck fraction with standard
+    errors over its trajectories (the keys of ``bbdyn simulate``; units in ``UNITS``).
     The measurement fields of ``thresholds`` must be those the features were run with.
     """
     th = Thresholds(**feat.meta["thresholds"]) if thresholds is None else thresholds
@@ -625,7 +628,7 @@ def _mean_se(values):
 
 
 def _regime(attractors, unsettled, th):
-    """Regime label (MODEL.md section 5) and the sentence that decided it."""
+    """Regime label (docs/model.md, section 5) and the sentence that decided it."""
     if not attractors:
         return "other", "no settled attractor: every trajectory is unsettled (longer t?)"
     chars = ", ".join(f"{a['character']} ({a['fraction']:.3g})" for a in attractors)
@@ -678,7 +681,10 @@ class Classification(Result):
     """Attractors, basins, ergodicity and regime (``meta["summary"]``, JSON-ready).
 
     Arrays: ``labels`` (n,) attractor per trajectory (-1 unsettled), ``initial`` (n, 3),
-    ``box_index`` (n,), and per-trajectory time averages used as evidence.
+    ``box_index`` (n,), and per-trajectory time averages used as evidence (energies in
+    A^2 w^2 / 2, as ``FeatureResult.block_values``), with ``D`` (mm^2/s) each trajectory's
+    MSD slope / 2 over the D window (``diffusion.per_particle_slopes``): its mean over an
+    attractor's trajectories is the attractor's D.
     """
 
     kind = "classification"
