@@ -78,16 +78,20 @@ def stick_phase(gamma, where):
 STICK_PHASES = ["theta_r", "middle", "just_before_theta_e", "theta_e"]
 
 
+def window_sticks(phase, kind, gamma):
+    """Indices of the sticks inside the release window ``theta_r <= phase < theta_e``."""
+    if gamma <= 1.0:
+        return np.empty(0, dtype=np.int64)
+    theta_r, theta_e = release_window_phases(gamma)
+    return np.flatnonzero((kind == STICK) & (theta_r <= phase) & (phase < theta_e))
+
+
 def late_sticks(periods, phase, kind, gamma):
     """Number of sticks inside the release window not followed at once by their release.
 
     A stick at ``theta_r <= phase < theta_e`` (the floor falls faster than g) lasts zero
     time: the next event must be a RELEASE at the same ``(periods, phase)``.
     """
-    if gamma <= 1.0:
-        return 0
-    theta_r, theta_e = release_window_phases(gamma)
-    stick = (kind[:-1] == STICK) & (theta_r <= phase[:-1]) & (phase[:-1] < theta_e)
-    i = np.flatnonzero(stick)
+    i = window_sticks(phase[:-1], kind[:-1], gamma)
     ok = (kind[i + 1] == RELEASE) & (periods[i + 1] == periods[i]) & (phase[i + 1] == phase[i])
     return int(np.count_nonzero(~ok))

@@ -294,6 +294,11 @@ def _check_invariants(f, n):
     assert np.all(np.abs(y_particle - y_plate) <= IMPACT_GAP_REL * scale)
     # no double hits: every impact leaves the plate (vrel+ > 0) unless it sticks
     assert np.all(vrel[kind == IMPACT] >= 0)
+    # chattering ends where the plate holds the particle (g_eff > 0 over the summed sequence),
+    # never inside the release window
+    theta_r, theta_e = release_window_phases(p.gamma)
+    stick = phase[kind == STICK]
+    assert stick.size > 0 and not np.any((theta_r <= stick) & (stick < theta_e))
     return kind
 
 
