@@ -9,7 +9,14 @@ Layout of ``out_dir``::
 
     manifest.json                 the scan: name, values, seed, compute (written first)
     points/f_58.000000000.npz     one point's arrays (loaded with allow_pickle=False)
-    points/f_58.000000000.json    its metadata; written last, so it marks the point done
+    points/f_58.000000000.json    its metadata and the SHA-256 of its .npz; written last,
+                                  so it marks the point done
+    scan.lock                     held (flock) by the scan running in the folder; its PID
+
+Trust.  A stored point is used only if its .npz matches the checksum in its .json and
+its metadata (name, seed key, seed, compute) match its file name and the manifest;
+a resumed scan computes any other point again (with a warning naming the file), and
+``load_scan`` refuses it (``DamagedResultError`` naming the file and the remedy).
 
 Seeds.  The point at ``value`` gets ``np.random.SeedSequence(seed, spawn_key=(key,))``
 with ``key = round(value * 10**9)``: the value rounded to 1e-9 (Hz for a frequency
@@ -22,6 +29,7 @@ from __future__ import annotations
 
 import concurrent.futures as cf
 import contextlib
+import errno
 import functools
 import json
 import multiprocessing
@@ -31,6 +39,7 @@ import socket
 import sys
 import threading
 import time
+import warnings
 from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any, TextIO
@@ -38,10 +47,21 @@ from typing import Any, TextIO
 import numpy as np
 
 from bbdyn.progress import Progress, progress_stream
-from bbdyn.results import Result, make_meta, result_paths, write_json_atomic
+from bbdyn.results import (
+    DamagedResultError,
+    Result,
+    make_meta,
+    read_json,
+    result_paths,
+    write_json_atomic,
+)
 
 __all__ = [
     "KEY_SCALE",
+    "DamagedPointWarning",
+    "ScanBusyError",
+    "ScanStorageError",
+    "SchedulerUnreachableError",
     "ScanResult",
     "describe_compute",
     "load_scan",
@@ -55,8 +75,28 @@ __all__ = [
 KEY_SCALE = 10**9
 MANIFEST = "manifest.json"
 POINTS = "points"
+LOCK = "scan.lock"
+#: Seconds to wait for a dask scheduler before giving up.
+CONNECT_TIMEOUT_S = 5.0
 #: Manifest fields that define a scan; resuming with any of them changed is refused.
 _DEFINING = ("name", "values", "keys", "seed", "compute")
+_RESUME = "run the same scan again with resume=True (bbdyn scan ... --resume)"
+
+
+class ScanBusyError(OSError):
+    """Another process is running a scan in this folder (it holds the folder's lock)."""
+
+
+class ScanStorageError(OSError):
+    """The scan folder cannot be written (disk full, read-only, no permission)."""
+
+
+class SchedulerUnreachableError(OSError):
+    """No dask scheduler answers at the given address."""
+
+
+class DamagedPointWarning(UserWarning):
+    """A stored point was damaged or did not belong to the scan; it is computed again."""
 
 
 # ---- seeds and file names -------------------------------------------------------------------
@@ -150,7 +190,95 @@ def _check_values(values: Sequence[float], name: str) -> tuple[list[float], list
     return floats, keys
 
 
+# ---- the folder: lock, manifest, stored points ----------------------------------------------
+_REMEDIES = {
+    errno.ENOSPC: "free disk space",
+    errno.EDQUOT: "free disk space (the disk quota is exceeded)",
+    errno.EACCES: "make it writable",
+    errno.EPERM: "make it writable",
+    errno.EROFS: "make it writable (it is on a read-only file system)",
+}
+
+
+@contextlib.contextmanager
+def _writing(out_dir: Path):
+    """Turn a failed write into a ``ScanStorageError`` naming the folder and the remedy."""
+    try:
+        yield
+    except OSError as err:
+        remedy = _REMEDIES.get(err.errno, "check the folder")
+        raise ScanStorageError(
+            f"cannot write to the scan folder {out_dir}: {err.strerror or err}; {remedy} or "
+            f"choose another folder (out_dir= / --out), then {_RESUME}: finished points are kept"
+        ) from None
+
+
+@contextlib.contextmanager
+def _scan_lock(out_dir: Path):
+    """Hold ``out_dir/scan.lock`` (an advisory lock the OS releases when this process dies)."""
+    path = out_dir / LOCK
+    with _writing(out_dir):
+        out_dir.mkdir(parents=True, exist_ok=True)
+        fd = os.open(path, os.O_RDWR | os.O_CREAT, 0o666)
+    try:
+        if not _try_lock(fd):
+            holder = os.read(fd, 32).decode(errors="replace").strip() or "unknown"
+            raise ScanBusyError(
+                f"{out_dir} is in use by another scan (PID {holder}): wait for it to finish "
+                f"or stop it, then {_RESUME}; or choose another folder"
+            )
+        os.ftruncate(fd, 0)
+        os.write(fd, f"{os.getpid()}\n".encode())
+        yield
+    finally:
+        os.close(fd)  # releases the lock
+
+
+def _try_lock(fd: int) -> bool:
+    """Take an exclusive lock on ``fd`` without waiting; False if another process holds it."""
+    try:
+        import fcntl
+    except ImportError:  # Windows
+        import msvcrt
+
+        try:
+            msvcrt.locking(fd, msvcrt.LK_NBLCK, 1)
+        except OSError:
+            return False
+        return True
+    try:
+        fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+    except BlockingIOError:
+        return False
+    return True
+
+
+def _read_manifest(out_dir: Path) -> dict[str, Any]:
+    """The manifest of ``out_dir``; a ``DamagedResultError`` naming it if it is unusable."""
+    path = out_dir / MANIFEST
+    remedy = (
+        "delete it and run the same scan again with resume=True (bbdyn scan ... --resume): "
+        "the points that belong to that scan are kept, the others computed again"
+    )
+    try:
+        manifest = read_json(path)
+    except DamagedResultError as err:
+        raise DamagedResultError(f"the scan manifest is damaged: {err}; {remedy}") from None
+    fields = ("name", "values", "keys", "seed", "compute")
+    if (
+        not isinstance(manifest, dict)
+        or manifest.get("kind") != "scan_manifest"
+        or any(k not in manifest for k in fields)
+        or manifest["keys"] != [point_key(v) for v in manifest["values"]]
+    ):
+        raise DamagedResultError(
+            f"{path} is damaged (not a scan manifest with {', '.join(fields)}); {remedy}"
+        )
+    return manifest
+
+
 def _prepare_out_dir(out_dir: Path, manifest: dict[str, Any], resume: bool) -> None:
+    """Check the manifest of a resumed scan, or write it; the caller holds the lock."""
     path = out_dir / MANIFEST
     if path.exists():
         if not resume:
@@ -158,8 +286,7 @@ def _prepare_out_dir(out_dir: Path, manifest: dict[str, Any], resume: bool) -> N
                 f"{out_dir} already holds a scan; pass resume=True to finish it, "
                 "or choose a new out_dir"
             )
-        with open(path) as fh:
-            old = json.load(fh)
+        old = _read_manifest(out_dir)
         differ = [k for k in _DEFINING if old.get(k) != manifest[k]]
         if differ:
             raise ValueError(
@@ -167,15 +294,55 @@ def _prepare_out_dir(out_dir: Path, manifest: dict[str, Any], resume: bool) -> N
                 "resume it with the same values, seed and compute, or choose a new out_dir"
             )
         # leftovers of writes cut short by a crash; the point is simply computed again
-        for tmp in (out_dir / POINTS).glob("*.tmp"):
-            tmp.unlink()
+        with _writing(out_dir):
+            for tmp in (out_dir / POINTS).glob("*.tmp"):
+                tmp.unlink()
     else:
-        write_json_atomic(path, manifest)
-    (out_dir / POINTS).mkdir(parents=True, exist_ok=True)
+        with _writing(out_dir):
+            write_json_atomic(path, manifest)
+    with _writing(out_dir):
+        (out_dir / POINTS).mkdir(parents=True, exist_ok=True)
 
 
-def _is_done(stem: Path) -> bool:
-    return all(p.exists() for p in result_paths(stem))
+def _stored_point(stem: Path, manifest: dict[str, Any], key: int) -> _ScanPoint | None:
+    """The point stored at ``stem``, None if it is not (completely) stored.
+
+    Raises ``DamagedResultError`` naming the file if it is damaged (checksum, JSON) or
+    is not the point of this scan its name says (name, key, seed or compute differ).
+    """
+    npz_path, json_path = result_paths(stem)
+    if not json_path.exists():  # the .json is written last: no .json, no point
+        return None
+    try:
+        point = _ScanPoint.load(stem)
+    except (ValueError, TypeError, FileNotFoundError) as err:
+        raise DamagedResultError(str(err)) from None
+    expected = {
+        "name": manifest["name"],
+        "key": key,
+        "seed": manifest["seed"],
+        "compute": manifest["compute"],
+    }
+    differ = [k for k, v in expected.items() if point.meta.get(k) != v]
+    if differ:
+        raise DamagedResultError(
+            f"{json_path} is not the point of this scan its name says (differs in: "
+            f"{', '.join(differ)}; it holds {point.meta.get('name')}={point.meta.get('value')})"
+        )
+    return point
+
+
+def _point_done(stem: Path, manifest: dict[str, Any], key: int, value: float) -> bool:
+    """Whether the point is stored and sound; a damaged point is deleted with a warning."""
+    try:
+        return _stored_point(stem, manifest, key) is not None
+    except DamagedResultError as err:
+        warnings.warn(
+            f"{err}; computing {manifest['name']}={value} again", DamagedPointWarning, stacklevel=4
+        )
+    for path in result_paths(stem):
+        path.unlink(missing_ok=True)
+    return False
 
 
 # ---- one point, in a worker -----------------------------------------------------------------
@@ -218,6 +385,45 @@ class _ScanPoint(Result):
 
 
 # ---- executors ------------------------------------------------------------------------------
+def _worker_init() -> None:
+    """Make this worker exit when the scan process dies, even by ``kill -9``.
+
+    Linux: the kernel sends SIGTERM when the worker's parent dies (``PR_SET_PDEATHSIG``),
+    whatever the worker is doing (even inside a numba kernel).  The parent is the
+    forkserver, which exits when the scan process dies once no worker holds its
+    "scan alive" pipe, so each worker closes its copy.  Elsewhere a daemon thread waits
+    for the scan process (``multiprocessing.parent_process()``) and exits the worker;
+    it runs as soon as the worker releases the GIL.
+
+    Processes this worker starts use "spawn".  (numba then guards its thread start-up
+    with a plain lock instead of a multiprocessing one, which a worker stopped by a
+    signal would leave registered: "leaked semaphore" warnings at exit.)
+    """
+    multiprocessing.set_start_method("spawn", force=True)
+    if sys.platform.startswith("linux"):
+        import ctypes
+        from multiprocessing import forkserver
+
+        server = forkserver._forkserver
+        if getattr(server, "_forkserver_alive_fd", None) is not None:
+            os.close(server._forkserver_alive_fd)
+            server._forkserver_alive_fd = None
+        parent = os.getppid()
+        pr_set_pdeathsig = 1
+        ctypes.CDLL(None, use_errno=True).prctl(pr_set_pdeathsig, signal.SIGTERM, 0, 0, 0)
+        if os.getppid() != parent:  # the parent died before the signal was armed
+            os._exit(1)
+        return
+    parent = multiprocessing.parent_process()
+    if parent is not None:
+
+        def exit_with_parent():
+            parent.join()
+            os._exit(1)
+
+        threading.Thread(target=exit_with_parent, daemon=True).start()
+
+
 class _LocalBackend:
     """Worker processes on this machine (``concurrent.futures.ProcessPoolExecutor``)."""
 
@@ -229,7 +435,9 @@ class _LocalBackend:
             ctx.set_forkserver_preload(["bbdyn.scan"])
         else:
             ctx = multiprocessing.get_context("spawn")
-        self.pool = cf.ProcessPoolExecutor(max_workers=workers, mp_context=ctx)
+        self.pool = cf.ProcessPoolExecutor(
+            max_workers=workers, mp_context=ctx, initializer=_worker_init
+        )
         self.in_flight = 2 * workers
 
     def submit(self, compute, value, seed):
@@ -239,6 +447,9 @@ class _LocalBackend:
         return cf.wait(futures, return_when=cf.FIRST_COMPLETED).done
 
     def close(self, interrupted: bool, running) -> None:
+        """Stop the workers (at once if ``interrupted``); later calls do nothing."""
+        if self.pool is None:
+            return
         # shutdown() cannot stop a running point; without terminating the workers
         # the interpreter would wait at exit for every running point to finish.
         procs = list((getattr(self.pool, "_processes", None) or {}).values())
@@ -246,6 +457,11 @@ class _LocalBackend:
         if interrupted:
             for proc in procs:
                 proc.terminate()
+            for proc in procs:
+                proc.join()
+            # the pool's manager thread now ends, releasing the pool's semaphores
+            self.pool.shutdown(wait=True)
+        self.pool = None
 
 
 class _DaskBackend:
@@ -262,13 +478,24 @@ class _DaskBackend:
         if isinstance(scheduler, distributed.Client):
             self.client, self.own_client = scheduler, False
         elif isinstance(scheduler, str):
-            self.client, self.own_client = distributed.Client(scheduler), True
+            self.client, self.own_client = self._connect(distributed, scheduler), True
         else:
             raise ValueError(
                 f"scheduler must be an address string or a distributed.Client, got {scheduler!r}"
             )
         # the scheduler balances the whole scan; we only cap memory held by results
         self.in_flight = 10_000
+
+    @staticmethod
+    def _connect(distributed, address: str):
+        try:
+            return distributed.Client(address, timeout=CONNECT_TIMEOUT_S)
+        except (OSError, TimeoutError) as err:
+            raise SchedulerUnreachableError(
+                f"no dask scheduler answers at {address} within {CONNECT_TIMEOUT_S:g} s ({err}): "
+                "start it (dask scheduler) and its workers, check the address, or leave out "
+                "scheduler= / --scheduler to run on this machine"
+            ) from None
 
     def submit(self, compute, value, seed):
         return self.client.submit(_run_point, compute, value, seed, pure=False)
@@ -277,10 +504,14 @@ class _DaskBackend:
         return self.distributed.wait(list(futures), return_when="FIRST_COMPLETED").done
 
     def close(self, interrupted: bool, running) -> None:
+        """Cancel the running points if ``interrupted``, close our client; then do nothing."""
+        if self.client is None:
+            return
         if interrupted:
             self.client.cancel(list(running))
         if self.own_client:
             self.client.close()
+        self.client = None
 
 
 def _available_cores() -> int:
@@ -366,22 +597,27 @@ def run_scan(
         "compute": describe_compute(compute),
     }
     manifest = make_meta(**manifest)
-    _prepare_out_dir(out_dir, manifest, resume)
-
-    stems = {v: out_dir / POINTS / _point_stem(name, k) for v, k in zip(floats, keys, strict=True)}
-    todo = [v for v in floats if not _is_done(stems[v])]
-    bar = Progress(len(floats), done=len(floats) - len(todo), label=name, stream=stream)
+    # a cluster is reached before anything is written, so a wrong address leaves no folder
+    backend = _DaskBackend(scheduler) if scheduler is not None else None
     try:
-        if todo:
-            if scheduler is not None:
-                backend = _DaskBackend(scheduler)
-            else:
-                backend = _LocalBackend(min(workers or _available_cores(), len(todo)))
-            with _sigterm_as_interrupt():
-                _drive(backend, todo, compute, seed, name, stems, manifest, bar, out_dir)
+        with _scan_lock(out_dir):
+            _prepare_out_dir(out_dir, manifest, resume)
+            pairs = list(zip(floats, keys, strict=True))
+            stems = {v: out_dir / POINTS / _point_stem(name, k) for v, k in pairs}
+            todo = [v for v, k in pairs if not _point_done(stems[v], manifest, k, v)]
+            bar = Progress(len(floats), done=len(floats) - len(todo), label=name, stream=stream)
+            try:
+                if todo:
+                    if backend is None:
+                        backend = _LocalBackend(min(workers or _available_cores(), len(todo)))
+                    with _sigterm_as_interrupt():
+                        _drive(backend, todo, compute, seed, name, stems, manifest, bar, out_dir)
+            finally:
+                bar.close()
+            return load_scan(out_dir)
     finally:
-        bar.close()
-    return load_scan(out_dir)
+        if backend is not None:
+            backend.close(interrupted=False, running=())
 
 
 @contextlib.contextmanager
@@ -438,7 +674,8 @@ def _drive(backend, todo, compute, seed, name, stems, manifest, bar, out_dir) ->
                     compute=manifest["compute"],
                     **info,
                 )
-                _ScanPoint(arrays, meta).save(stems[value])
+                with _writing(out_dir):
+                    _ScanPoint(arrays, meta).save(stems[value])
                 bar.update()
     except BaseException:
         interrupted = True
@@ -503,21 +740,31 @@ class ScanResult(Result):
 def load_scan(out_dir: str | os.PathLike, *, partial: bool = False) -> ScanResult:
     """Load a scan folder written by ``run_scan`` (without unpickling anything).
 
-    With ``partial=True`` an unfinished scan loads its finished points only;
-    otherwise a missing point raises ``FileNotFoundError``.
+    With ``partial=True`` an unfinished scan loads its finished points only (a damaged
+    point is left out with a ``DamagedPointWarning``); otherwise a missing point raises
+    ``FileNotFoundError`` and a damaged one ``DamagedResultError`` (a ValueError) naming
+    the file.
     """
     out_dir = Path(out_dir)
-    with open(out_dir / MANIFEST) as fh:
-        manifest = json.load(fh)
-    if manifest.get("kind") != "scan_manifest":
-        raise ValueError(f"{out_dir / MANIFEST} is not a scan manifest")
+    if not (out_dir / MANIFEST).exists():
+        raise FileNotFoundError(f"{out_dir / MANIFEST} does not exist: {out_dir} holds no scan")
+    manifest = _read_manifest(out_dir)
     name = manifest["name"]
     done, points = [], []
     for value, key in zip(manifest["values"], manifest["keys"], strict=True):
-        stem = out_dir / POINTS / _point_stem(name, key)
-        if _is_done(stem):
+        try:
+            point = _stored_point(out_dir / POINTS / _point_stem(name, key), manifest, key)
+        except DamagedResultError as err:
+            if not partial:
+                raise DamagedResultError(
+                    f"{err}: {_RESUME} to compute {name}={value} again, "
+                    "or load the other points with partial=True"
+                ) from None
+            warnings.warn(f"{err}; {name}={value} is left out", DamagedPointWarning, stacklevel=2)
+            continue
+        if point is not None:
             done.append(value)
-            points.append(_ScanPoint.load(stem))
+            points.append(point)
     missing = len(manifest["values"]) - len(done)
     if missing and not partial:
         raise FileNotFoundError(
