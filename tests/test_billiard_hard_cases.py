@@ -10,6 +10,7 @@ from scipy.optimize import brentq
 from bbdyn import Params
 from bbdyn.billiard import simulate, state_from_section
 from bbdyn.core.billiard import billiard_event, billiard_flight, collide, flight_gap
+from bbdyn.core.flat import flat_flight
 from bbdyn.core.floor import bounce, floor_height_rel
 from bbdyn.core.status import IMPACT, OK, RELEASE, STICK, STUCK_FOREVER
 from bbdyn.core.tolerances import EPS, WEDGE_TOL
@@ -310,3 +311,20 @@ def test_wedge_bounce_tangent_to_the_neighbour(side):
     # it fell straight down onto the wedge: the stick is at the time of that fall
     t = (traj["periods"][-1] * TWO_PI + traj["phase"][-1]) / params.w
     assert math.isclose(t, 2.0 / params.g, rel_tol=1e-12)
+
+
+@pytest.mark.parametrize("vx", [-2.225073858507203e-309, -1e-20, 1e-20], ids=str)
+def test_flight_from_a_wedge_with_a_tiny_vx(vx):
+    """Found by the explored property test: from a wedge with |vx| below the rounding of the
+    position the particle rises and falls back onto that wedge, like the flat ball (the gap
+    differs by the floor's drop over |vx| tau, below 1e-20 mm).  Leftwards it lands on the
+    left tile (it used to be put on the right one and the search did not converge)."""
+    kp = Params(f=43.0, A=0.125, alpha=0.0, beta=0.0, R=5.5, d=1.0).kernel()
+    half = kp.d / 2
+    xi0 = -half if vx < 0 else half
+    tau, k, xi, vminus, _, status = billiard_flight(0.0, xi0, vx, 100.0, kp)
+    tau_flat, vminus_flat, status_flat = flat_flight(0.0, 100.0, kp)
+    assert status == status_flat == OK
+    assert k == (-1.0 if vx < 0 else 1.0) and xi == -xi0
+    assert math.isclose(tau, tau_flat, rel_tol=1e-12)
+    assert math.isclose(vminus, vminus_flat, rel_tol=1e-9)

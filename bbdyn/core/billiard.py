@@ -73,8 +73,15 @@ def crossing_time(xi0, k, vx, d):
 
 @njit(cache=True, inline="always")
 def tile_offset(xi0, vx, tau, d):
-    """Tile offset (integer-valued float) of the point reached at ``tau`` from ``xi0``."""
-    return math.floor((xi0 + 0.5 * d + vx * tau) / d)
+    """Tile offset (integer-valued float) of the point reached at ``tau`` from ``xi0``.
+
+    A point on a wedge belongs to the tile the particle is moving into: the left one
+    for ``vx < 0`` (a flight leaving a wedge by less than its rounding stays there).
+    """
+    pos = (xi0 + 0.5 * d + vx * tau) / d
+    if vx < 0.0:
+        return math.ceil(pos) - 1.0
+    return math.floor(pos)
 
 
 @njit(cache=True, inline="always")
