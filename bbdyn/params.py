@@ -1,4 +1,4 @@
-"""Validated, immutable model parameters (MODEL.md, "Units and defaults").
+"""Validated, immutable model parameters (docs/model.md, "Units and defaults").
 
 Units: lengths in mm, times in s, mass 1 kg.  ``Params`` is validated once, at
 construction; kernels never see it, they take ``Params.kernel()``, a NamedTuple
@@ -8,6 +8,7 @@ of plain floats that numba accepts.
 from __future__ import annotations
 
 import math
+import numbers
 from dataclasses import asdict, dataclass, replace
 from typing import NamedTuple
 
@@ -17,7 +18,7 @@ __all__ = ["Params", "KernelParams"]
 class KernelParams(NamedTuple):
     """Plain floats for the numba kernels (units: mm, s).
 
-    ``A, w, g, alpha, beta, R, d`` as in MODEL.md; the rest are derived once
+    ``A, w, g, alpha, beta, R, d`` as in docs/model.md; the rest are derived once
     here so that kernels never recompute them: ``gamma = A w^2 / g``,
     ``curv_bound = g + A w^2`` (a bound on |d^2 gap / dt^2| of the flat ball),
     ``c0 = sqrt(R^2 - d^2/4)`` (depth of the arc centres below the wedges) and
@@ -37,34 +38,64 @@ class KernelParams(NamedTuple):
     period: float
 
 
-def _check_finite(name: str, value: float) -> float:
-    try:
-        value = float(value)
-    except (TypeError, ValueError):
-        raise TypeError(f"{name} must be a real number, got {value!r}") from None
+#: Supported range ``(low, high)`` of each dimensional field, in its unit (Hz, mm, mm/s^2);
+#: ``R`` must also exceed ``d/2``.  Generous: each reaches at least four decades beyond
+#: the reference set-up (f near 50-95 Hz, A = 0.1 mm, g = 9800 mm/s^2, d = 2 mm,
+#: R = 25 mm; R = 1e9 mm is a flat floor), while every derived quantity stays far from
+#: floating-point overflow (w^2, A w^2, Gamma = A w^2 / g, 1/f and R^2 all below 1e30).
+LIMITS = {
+    "f": (1e-6, 1e6),
+    "A": (0.0, 1e6),
+    "g": (1e-6, 1e12),
+    "d": (1e-6, 1e6),
+    "R": (0.0, 1e12),
+}
+UNITS = {"f": "Hz", "A": "mm", "g": "mm/s^2", "d": "mm", "R": "mm"}
+RANGE_REASON = "bbdyn's supported range: generous, and bounded so that Gamma, h and R^2 stay finite"
+
+
+def _check_real(name: str, value) -> float:
+    """``value`` as a finite float; TypeError unless a real number (bools and text are not)."""
+    if isinstance(value, bool) or not isinstance(value, numbers.Real):
+        raise TypeError(
+            f"{name} must be a real number (int or float), got {type(value).__name__} {value!r}"
+        )
+    value = float(value)
     if not math.isfinite(value):
         raise ValueError(f"{name} must be finite, got {value}")
     return value
 
 
+def _check_range(name: str, value: float) -> None:
+    """Refuse a dimensional field outside ``LIMITS``: ValueError naming the range and why."""
+    low, high = LIMITS[name]
+    if not low <= value <= high:
+        raise ValueError(
+            f"{name} must be in [{low:g}, {high:g}] {UNITS[name]}, got {value:g} ({RANGE_REASON})"
+        )
+
+
 @dataclass(frozen=True, kw_only=True)
 class Params:
-    """Parameters of the bouncing ball (billiard), MODEL.md defaults.
+    """Parameters of the bouncing ball (billiard), with the defaults of docs/model.md.
 
     Parameters
     ----------
     f : float
-        Driving frequency in Hz (> 0). No default: it is the scanned parameter.
+        Driving frequency in Hz, in [1e-6, 1e6]. No default: it is the scanned parameter.
     A : float
-        Floor vibration amplitude in mm (>= 0); default 0.1.
+        Floor vibration amplitude in mm, in [0, 1e6]; default 0.1.
     g : float
-        Gravitational acceleration in mm/s^2 (> 0); default 9800.
+        Gravitational acceleration in mm/s^2, in [1e-6, 1e12]; default 9800.
     alpha, beta : float
         Normal and tangential restitution coefficients, in [0, 1]; defaults 0.5, 0.99.
     R : float
-        Radius of the circular scatterers in mm (>= d/2); default 25.
+        Radius of the circular scatterers in mm, in (d/2, 1e12]; default 25.
     d : float
-        Width of one scatterer (tile) in mm (> 0); default 2.
+        Width of one scatterer (tile) in mm, in [1e-6, 1e6]; default 2.
+
+    Every field must be a real number (bools and strings are refused with a
+    TypeError); the ranges of the dimensional fields are ``LIMITS``.
 
     Examples
     --------
@@ -87,21 +118,18 @@ class Params:
 
     def __post_init__(self) -> None:
         for name in ("f", "A", "g", "alpha", "beta", "R", "d"):
-            object.__setattr__(self, name, _check_finite(name, getattr(self, name)))
-        if self.f <= 0:
-            raise ValueError(f"f must be > 0 Hz, got {self.f}")
-        if self.A < 0:
-            raise ValueError(f"A must be >= 0 mm, got {self.A}")
-        if self.g <= 0:
-            raise ValueError(f"g must be > 0 mm/s^2, got {self.g}")
+            object.__setattr__(self, name, _check_real(name, getattr(self, name)))
         for name in ("alpha", "beta"):
             value = getattr(self, name)
             if not 0.0 <= value <= 1.0:
                 raise ValueError(f"{name} must be in [0, 1], got {value}")
-        if self.d <= 0:
-            raise ValueError(f"d must be > 0 mm, got {self.d}")
-        if self.R < self.d / 2:
-            raise ValueError(f"R must be >= d/2 = {self.d / 2} mm, got {self.R}")
+        for name in LIMITS:
+            _check_range(name, getattr(self, name))
+        if self.R <= self.d / 2:
+            raise ValueError(
+                f"R must be > d/2 = {self.d / 2:g} mm, got {self.R:g}: at R = d/2 the arcs are "
+                "semicircles with vertical tangents at the wedges; use a larger R"
+            )
 
     # ---- derived quantities -------------------------------------------------
     @property

@@ -1,1 +1,172 @@
-"""Subcommands of the ``bbdyn`` CLI, one module each (see ``bbdyn.cli``)."""
+"""Subcommands of the ``bbdyn`` CLI, one module each (see ``bbdyn.cli``), and what they share.
+
+Argument types refuse a bad value while the command line is parsed, so the message
+names the option (``argument --n: n must be an integer >= 2 ...``) and nothing has
+run yet; output paths are checked the same way (an existing, writable folder; no
+folder is created) and every saved file is reported.  ``PARAM_DEFAULTS`` are the
+defaults of ``bbdyn.Params``, shown by ``--help``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import math
+import os
+import sys
+from collections.abc import Callable
+from pathlib import Path
+
+from bbdyn.params import Params
+
+#: Defaults of the fields of ``bbdyn.Params`` (f has none).
+PARAM_DEFAULTS = {
+    f.name: f.default for f in dataclasses.fields(Params) if f.default is not dataclasses.MISSING
+}
+
+#: Fewest particles of an ensemble: D, the energies and the stuck fraction are reported
+#: with standard errors over particles, which need two of them.
+MIN_PARTICLES = 2
+
+
+def integer(text: str) -> int:
+    """An integer option (``"12"``; not ``"1.5"`` or ``"1e3"``)."""
+    try:
+        return int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"must be an integer, got {text!r}") from None
+
+
+def integer_in(name: str, low: int, high: int | None = None, why="") -> Callable[[str], int]:
+    """Argument type: an integer in ``[low, high]`` (no upper bound if None).
+
+    ``why`` explains the bound in the message: a string, or a function of the refused
+    value (to state, e.g., the time it would take)."""
+
+    def parse(text: str) -> int:
+        value = integer(text)
+        if value < low or (high is not None and value > high):
+            bound = f">= {low}" if high is None else f"in [{low}, {high}]"
+            reason = why(value) if callable(why) else why
+            raise argparse.ArgumentTypeError(
+                f"{name} must be an integer {bound}, got {value}"
+                + (f" ({reason})" if reason else "")
+            )
+        return value
+
+    return parse
+
+
+def duration(seconds: float) -> str:
+    """A rough human-readable duration: ``"40 s"``, ``"3.2 hours"``, ``"12 years"``."""
+    for unit, size in (("years", 3.156e7), ("days", 86400.0), ("hours", 3600.0), ("min", 60.0)):
+        if seconds >= size:
+            return f"{seconds / size:.2g} {unit}"
+    return f"{seconds:.2g} s"
+
+
+#: ``--n``: the number of particles (one rule for every command).
+particles = integer_in(
+    "n", MIN_PARTICLES, None, "standard errors over particles need at least two particles"
+)
+#: ``--seed``: the seed of ``np.random.SeedSequence``, which takes integers >= 0.
+seed = integer_in("seed", 0, None, "a seed of numpy's SeedSequence is a non-negative integer")
+#: ``--threads``: numba threads (the upper bound, the number of cores, is checked at the run).
+threads = integer_in("threads", 1)
+
+
+def finite(text: str) -> float:
+    """A finite real number (``"nan"``, ``"inf"`` and ``"1e999"`` are refused)."""
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"must be a number, got {text!r}") from None
+    if not math.isfinite(value):
+        raise argparse.ArgumentTypeError(f"must be a finite number, got {text!r}")
+    return value
+
+
+def _writable_folder(text: str) -> Path:
+    """The path ``text`` after checking that its folder exists and is writable."""
+    if not text.strip():
+        raise argparse.ArgumentTypeError("must name a file, got an empty path")
+    path = Path(text)
+    if path.is_dir():
+        raise argparse.ArgumentTypeError(
+            f"{text} is a folder; give a file name inside it, e.g. {path / 'run'}"
+        )
+    folder = path.parent
+    if folder.exists() and not folder.is_dir():
+        raise argparse.ArgumentTypeError(
+            f"{folder} is a file, not a folder; choose a path in an existing folder"
+        )
+    if not folder.is_dir():
+        raise argparse.ArgumentTypeError(
+            f"folder {folder} does not exist; create it first or choose an existing folder"
+        )
+    if not os.access(folder, os.W_OK | os.X_OK):
+        raise argparse.ArgumentTypeError(f"folder {folder} is not writable; choose another folder")
+    return path
+
+
+#: ``--save NAME``: a result saved as NAME.npz and NAME.json in an existing folder.
+save_name = _writable_folder
+#: ``--plot PNG``, ``--out PNG``: a file in an existing folder.
+output_file = _writable_folder
+
+
+def save_result(result, name: Path, json_mode: bool) -> None:
+    """Save ``result`` (``Result.save``) as ``name`` and say where: on stdout, or on stderr
+    when stdout carries JSON.  An OSError is raised again naming the files."""
+    from bbdyn.results import result_paths
+
+    npz, json_path = result_paths(name)
+    try:
+        result.save(name)
+    except OSError as err:
+        raise OSError(err.errno, err.strerror, f"{npz}, {json_path}") from err
+    report_written(f"saved {npz} and {json_path}", json_mode)
+
+
+def report_written(message: str, json_mode: bool) -> None:
+    """Print where output went: stdout, or stderr in ``--json`` mode (stdout is the JSON)."""
+    print(message, file=sys.stderr if json_mode else sys.stdout)
+
+
+def jsonable(value):
+    """``value`` with every non-finite float (NaN, inf) replaced by None, through dicts and
+    lists, so that the printed JSON is strict (no NaN or Infinity tokens)."""
+    if isinstance(value, dict):
+        return {k: jsonable(v) for k, v in value.items()}
+    if isinstance(value, list | tuple):
+        return [jsonable(v) for v in value]
+    return None if isinstance(value, float) and not math.isfinite(value) else value
+
+
+def add_ensemble_arguments(parser, *, t: float, n_meaning: str = "particles") -> None:
+    """The options of every ensemble run: ``--n``, ``--t`` (default ``t`` s), ``--seed``,
+    ``--threads`` and ``--json``."""
+    parser.add_argument("--n", type=particles, default=1000, help=f"{n_meaning} (default: 1000)")
+    parser.add_argument("--t", type=finite, default=t, help=f"simulated time in s (default: {t:g})")
+    parser.add_argument("--seed", type=seed, default=0, help="random seed (default: 0)")
+    parser.add_argument(
+        "--threads", type=threads, default=None, help="numba threads (default: all)"
+    )
+    parser.add_argument("--json", action="store_true", help="print one JSON object")
+
+
+def add_save_argument(parser) -> None:
+    """``--save NAME`` (a result as NAME.npz and NAME.json in an existing folder)."""
+    parser.add_argument(
+        "--save",
+        type=save_name,
+        default=None,
+        metavar="NAME",
+        help="also save the result as NAME.npz and NAME.json in an existing folder "
+        "(default: not saved)",
+    )
+
+
+def param_help(name: str, meaning: str) -> str:
+    """Help text of a model parameter option with its ``Params`` default."""
+    return f"{meaning} (default: {PARAM_DEFAULTS[name]:g})"

@@ -10,10 +10,18 @@ its module here.
 
 import json
 
-HELP = "work-precision benchmark (SCENES.md B2): speed and error against an mpmath reference"
+from bbdyn.commands import integer_in, jsonable, output_file, report_written
+
+HELP = "work-precision benchmark (B2): speed and error against an mpmath reference"
 
 #: target name -> module providing QUICK, FULL, compute, table, draw
 TARGETS = {"flat": "bbdyn.benchmarking.flat", "billiard": "bbdyn.benchmarking.billiard"}
+
+#: Upper bounds of the overrides, 25 and 100 times the largest full settings (400
+#: compared impacts, 100000 long-run impacts).
+MAX_IMPACTS, MAX_LONG_RUN = 10_000, 10_000_000
+IMPACTS_WHY = "each compared impact needs its own high-precision mpmath reference flight"
+LONG_RUN_WHY = "the long run integrates every impact with each fixed-step setting"
 
 
 def add_arguments(parser) -> None:
@@ -21,14 +29,17 @@ def add_arguments(parser) -> None:
     parser.add_argument("--quick", action="store_true", help="quick setting (< 60 s)")
     parser.add_argument("--json", action="store_true", help="print one JSON object per row")
     parser.add_argument(
-        "--out", default=None, help="figure path (default out/bench_TARGET.png); numbers beside it"
-    )
+        "--out", type=output_file, default=None, metavar="PNG",
+        help="figure path in an existing folder, numbers beside it (default: out/bench_TARGET.png)",
+    )  # fmt: skip
     parser.add_argument(
-        "--impacts", type=int, default=None, help="override the number of compared impacts"
-    )
+        "--impacts", type=integer_in("impacts", 1, MAX_IMPACTS, IMPACTS_WHY), default=None,
+        help="number of compared impacts (default: that of the quick or full setting)",
+    )  # fmt: skip
     parser.add_argument(
-        "--long-run", type=int, default=None, help="override the impacts of the long-run statistics"
-    )
+        "--long-run", type=integer_in("long-run", 1, MAX_LONG_RUN, LONG_RUN_WHY), default=None,
+        help="impacts of the long-run statistics (default: that of the quick or full setting)",
+    )  # fmt: skip
 
 
 def run(args) -> int:
@@ -44,19 +55,17 @@ def run(args) -> int:
     settings = dict(module.QUICK if args.quick else module.FULL)
     for key, value in (("n_impacts", args.impacts), ("long_run", args.long_run)):
         if value is not None:
-            if value < 1:
-                raise ValueError(f"--{key.replace('_', '-')} must be >= 1, got {value}")
             settings[key] = value
     result = module.compute(settings)
     result.meta["setting"] = "quick" if args.quick else "full"
-    png = Path(args.out) if args.out else Path("out") / f"bench_{args.target}.png"
+    png = args.out or Path("out") / f"bench_{args.target}.png"
     result.save(png.with_suffix(""))
     fig = module.draw(result)
     fig.savefig(png, dpi=150, bbox_inches="tight")
     plt.close(fig)
     if args.json:
-        print(json.dumps(result.meta["rows"], indent=1))
+        print(json.dumps(jsonable(result.meta["rows"]), indent=1))
     else:
-        print(module.table(result))
-        print(f"\nfigure: {png}; numbers: {png.with_suffix('.json')}")
+        print(module.table(result) + "\n")
+    report_written(f"figure: {png}; numbers: {png.with_suffix('.json')}", args.json)
     return 0

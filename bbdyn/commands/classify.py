@@ -1,11 +1,20 @@
 """`bbdyn classify F [--n N --t T --seed S --box ...] [--json] [--plot PNG]`: one frequency.
 
 Runs ``bbdyn.classify.classify`` and prints the verdict and its evidence: the
-regime (MODEL.md section 5), ergodicity with its numbers, and each attractor with
+regime (docs/model.md, section 5), ergodicity with its numbers, and each attractor with
 its basin fraction, locking, period, stuck fraction, jump rate, its Einstein D (the
 estimator of ``bbdyn simulate`` over the attractor's particles, with D in successive
 windows) and its energies (kg mm^2/s^2).
 """
+
+from bbdyn.commands import (
+    PARAM_DEFAULTS,
+    add_ensemble_arguments,
+    finite,
+    output_file,
+    param_help,
+    report_written,
+)
 
 HELP = "classify the dynamics at one frequency: attractors, basins, ergodicity, regime"
 
@@ -14,23 +23,27 @@ BOX_NAMES = ("ref", "high")
 
 
 def add_arguments(parser) -> None:
-    parser.add_argument("f", type=float, help="driving frequency (Hz)")
-    parser.add_argument("--n", type=int, default=1000, help="particles per box (default: 1000)")
-    parser.add_argument("--t", type=float, default=50.0, help="simulated time in s (default: 50)")
-    parser.add_argument("--seed", type=int, default=0, help="random seed (default: 0)")
-    parser.add_argument("--transient", type=float, default=None, help="discarded time (s; t/2)")
+    parser.add_argument("f", type=finite, help="driving frequency (Hz)")
+    add_ensemble_arguments(parser, t=50.0, n_meaning="particles per box")
+    parser.add_argument(
+        "--transient", type=finite, default=None, help="discarded time (s; default: t/2)"
+    )
     parser.add_argument(
         "--box",
         action="append",
         default=None,
         metavar="BOX",
-        help="initial box: 'ref' (MODEL.md reference), 'high' (vy+ in (40, 400] mm/s) or "
+        help="initial box: 'ref' (the reference box), 'high' (vy+ in (40, 400] mm/s) or "
         "'s0,s1,vx0,vx1,vy0,vy1'; repeat for several boxes (default: ref)",
     )
-    parser.add_argument("--R", type=float, default=None, help="scatterer radius (mm; 1e9: flat)")
-    parser.add_argument("--threads", type=int, default=None, help="numba threads (default: all)")
-    parser.add_argument("--json", action="store_true", help="print one JSON object")
-    parser.add_argument("--plot", default=None, metavar="PNG", help="draw S6/S7/S8-style panels")
+    parser.add_argument(
+        "--R", type=finite, default=PARAM_DEFAULTS["R"],
+        help=param_help("R", "scatterer radius in mm; 1e9 is flat"),
+    )  # fmt: skip
+    parser.add_argument(
+        "--plot", type=output_file, default=None, metavar="PNG",
+        help="draw S6/S7/S8-style panels into PNG, in an existing folder (default: no plot)",
+    )  # fmt: skip
 
 
 def parse_box(text: str, params):
@@ -57,7 +70,7 @@ def classify_summary(args):
     from bbdyn import Params, __version__
     from bbdyn.classify import classify
 
-    params = Params(f=args.f) if args.R is None else Params(f=args.f, R=args.R)
+    params = Params(f=args.f, R=args.R)
     boxes = [parse_box(b, params) for b in (args.box or ["ref"])]
     start = time.perf_counter()
     res = classify(
@@ -113,6 +126,7 @@ def run(args) -> int:
     out, res = classify_summary(args)
     if args.plot:
         plot_attractors(res, args.plot)
+        report_written(f"plot: {args.plot}", args.json)
     if args.json:
         print(json.dumps(out, indent=2, default=float))
         return 0

@@ -3,30 +3,49 @@
 Runs the reference ensemble at one frequency (``bbdyn.gk_scan.gk_run``) and prints
 the escape time tau, ``D_rw``, the measured ``r = E_y / E_x`` and ``D_a`` with it,
 the truncated Green-Kubo ``D_n`` (n = 0..nmax) with bootstrap errors, the Einstein
-D with its standard error, and ``p_f``, ``p_b`` (MODEL.md section 4).  In the JSON
-output undefined numbers (NaN, and tau = inf when nothing jumped) are ``null``.
+D with its standard error, and ``p_f``, ``p_b`` (docs/model.md, section 4).  When no
+particle changes trap after the transient the run is reported as trapped (regime
+(a)): D_n = 0, tau infinite.  In the JSON output undefined numbers (NaN, and
+tau = r = inf when nothing jumped or moved sideways) are ``null``.
 """
+
+from bbdyn.commands import (
+    add_ensemble_arguments,
+    add_save_argument,
+    finite,
+    integer_in,
+    jsonable,
+    save_result,
+)
 
 HELP = "random-walk and truncated Green-Kubo approximations of D at one frequency"
 
+#: Highest accepted ``--nmax``.  D_n at order n averages products of jumps n apart, so
+#: the cost grows as nmax times the number of jumps; the default is 10.
+NMAX_MAX = 1000
+nmax_type = integer_in(
+    "nmax", 1, NMAX_MAX, "the cost grows as nmax x the number of jumps; D_n needs pairs of "
+    "jumps nmax apart in one particle's sequence"
+)  # fmt: skip
+
 
 def add_arguments(parser) -> None:
-    parser.add_argument("--f", type=float, required=True, help="driving frequency (Hz)")
-    parser.add_argument("--nmax", type=int, default=10, help="highest order n of D_n (default 10)")
-    parser.add_argument("--n", type=int, default=1000, help="particles (default: 1000)")
-    parser.add_argument("--t", type=float, default=200.0, help="simulated time in s (default: 200)")
-    parser.add_argument("--seed", type=int, default=0, help="random seed (default: 0)")
-    parser.add_argument("--threads", type=int, default=None, help="numba threads (default: all)")
-    parser.add_argument("--json", action="store_true", help="print one JSON object")
-    parser.add_argument("--save", default=None, help="also save the result to SAVE.npz/.json")
+    parser.add_argument("--f", type=finite, required=True, help="driving frequency (Hz)")
+    parser.add_argument(
+        "--nmax", type=nmax_type, default=10, help="highest order n of D_n (default: %(default)s)"
+    )
+    add_ensemble_arguments(parser, t=200.0)
+    add_save_argument(parser)
 
 
-def _finite_or_none(value):
-    import math
-
-    if isinstance(value, list):
-        return [_finite_or_none(v) for v in value]
-    return value if math.isfinite(value) else None
+def trapped_reason(n_jumps: int, gamma: float) -> str:
+    """Why the run counts as trapped (regime (a)), or "" when some particle jumped."""
+    if n_jumps:
+        return ""
+    reason = "regime (a), trapped: no particle changed trap after the transient"
+    if gamma <= 1:
+        reason += f"; Gamma = {gamma:.4g} <= 1: a particle that lands never leaves the floor"
+    return reason
 
 
 def gk_summary(args) -> dict:
@@ -37,40 +56,45 @@ def gk_summary(args) -> dict:
     params = Params(f=args.f)
     gk = gk_run(params, n=args.n, t=args.t, nmax=args.nmax, seed=args.seed, threads=args.threads)
     if args.save:
-        gk.save(args.save)
+        save_result(gk, args.save, args.json)
     numbers = gk_numbers(gk)
     out = {"version": __version__, "params": params.to_dict(), "seed": args.seed}
     out.update(n=args.n, t=args.t, transient=gk.meta["transient"], nmax=args.nmax)
     for key, value in numbers.items():
-        out[key] = _finite_or_none(value.tolist() if hasattr(value, "tolist") else value)
+        out[key] = value.tolist() if hasattr(value, "tolist") else value
     out["D_a_reason"] = gk.meta["D_a_reason"]
     out["n_jumps"] = gk.meta["n_jumps"]
+    out["gamma"] = params.gamma
+    out["trapped"] = trapped_reason(out["n_jumps"], params.gamma)
     out["wall_s"] = gk.meta["sim_wall_s"] + gk.meta["gk_wall_s"]
     return out
 
 
 def run(args) -> int:
     import json
+    import math
 
     out = gk_summary(args)
     if args.json:
-        print(json.dumps(out, indent=2))
+        print(json.dumps(jsonable(out), indent=2))
         return 0
 
     def fmt(value, err=None, spec=".4g"):
-        if value is None:
+        if math.isnan(value):
             return "undefined"
-        return f"{value:{spec}}" + ("" if err is None else f" +- {err:.2g}")
+        return f"{value:{spec}}" + ("" if err is None or math.isnan(err) else f" +- {err:.2g}")
 
     p = out["params"]
     print(f"bbdyn {out['version']}  f = {p['f']} Hz  n = {out['n']}  t = {out['t']} s  "
           f"seed = {out['seed']}  (jumps after {out['transient']:g} s)")  # fmt: skip
+    if out["trapped"]:
+        print(f"  {out['trapped']}")
     print(f"  tau            = {fmt(out['tau'], out['tau_err'])} s  ({out['n_jumps']} jumps, "
           f"{fmt(out['fraction_long'], spec='.2%')} longer than d)")  # fmt: skip
     print(f"  D_rw           = {fmt(out['D_rw'], out['D_rw_err'])} mm^2/s")
     print(f"  r = E_y / E_x  = {fmt(out['r'], out['r_err'])}")
     d_a = fmt(out["D_a"], out["D_a_err"]) + " mm^2/s"
-    print(f"  D_a            = {d_a if out['D_a'] is not None else out['D_a_reason']}")
+    print(f"  D_a            = {out['D_a_reason'] if math.isnan(out['D_a']) else d_a}")
     p_f, p_b = fmt(out["p_f"], out["p_f_err"]), fmt(out["p_b"], out["p_b_err"])
     print(f"  p_f, p_b       = {p_f}, {p_b}")
     print(f"  Einstein D     = {fmt(out['D'], out['D_err'])} mm^2/s")

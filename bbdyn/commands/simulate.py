@@ -2,32 +2,39 @@
 
 Prints the Einstein D with its standard error (late-window MSD slope), the
 period-averaged energies, the stuck fraction and the collision rate of the
-reference ensemble (MODEL.md section 3), with the parameters, seed, version
+reference ensemble (docs/model.md, section 3), with the parameters, seed, version
 and wall time.
 """
+
+from bbdyn.commands import (
+    PARAM_DEFAULTS,
+    add_ensemble_arguments,
+    add_save_argument,
+    finite,
+    jsonable,
+    param_help,
+    save_result,
+)
 
 HELP = "run the reference ensemble at one frequency and print D, energies, stuck fraction"
 
 
 def add_arguments(parser) -> None:
-    parser.add_argument("--f", type=float, required=True, help="driving frequency (Hz)")
-    parser.add_argument("--n", type=int, default=1000, help="particles (default: 1000)")
-    parser.add_argument("--t", type=float, default=200.0, help="simulated time in s (default: 200)")
-    parser.add_argument("--seed", type=int, default=0, help="random seed (default: 0)")
+    parser.add_argument("--f", type=finite, required=True, help="driving frequency (Hz)")
+    add_ensemble_arguments(parser, t=200.0)
     parser.add_argument(
-        "--transient", type=float, default=None, help="time discarded before averages (s; t/5)"
-    )
-    parser.add_argument("--threads", type=int, default=None, help="numba threads (default: all)")
+        "--transient", type=finite, default=None, help="time discarded before averages "
+        "(s; default: t/5)"
+    )  # fmt: skip
     for name, meaning in (
         ("A", "amplitude (mm)"),
         ("alpha", "normal restitution"),
         ("beta", "tangential restitution"),
     ):
         parser.add_argument(
-            f"--{name}", type=float, default=None, help=f"{meaning}, MODEL.md default"
+            f"--{name}", type=finite, default=PARAM_DEFAULTS[name], help=param_help(name, meaning)
         )
-    parser.add_argument("--json", action="store_true", help="print one JSON object")
-    parser.add_argument("--save", default=None, help="also save the result to SAVE.npz/.json")
+    add_save_argument(parser)
 
 
 def simulate_summary(args) -> dict:
@@ -36,8 +43,7 @@ def simulate_summary(args) -> dict:
     from bbdyn.diffusion import einstein_D_windows
     from bbdyn.ensemble import ensemble
 
-    changes = {k: getattr(args, k) for k in ("A", "alpha", "beta") if getattr(args, k) is not None}
-    params = Params(f=args.f, **changes)
+    params = Params(f=args.f, A=args.A, alpha=args.alpha, beta=args.beta)
     res = ensemble(
         params,
         n=args.n,
@@ -48,7 +54,7 @@ def simulate_summary(args) -> dict:
         observables=("displacement", "energy"),
     )
     if args.save:
-        res.save(args.save)
+        save_result(res, args.save, args.json)
     out = {"version": __version__, "params": params.to_dict(), "seed": args.seed}
     out.update(n=args.n, t=args.t, transient=res.meta["transient"], threads=res.meta["threads"])
     out.update(res.summary())
@@ -64,7 +70,7 @@ def run(args) -> int:
 
     out = simulate_summary(args)
     if args.json:
-        print(json.dumps(out, indent=2))
+        print(json.dumps(jsonable(out), indent=2))
         return 0
     p = out["params"]
     print(f"bbdyn {out['version']}  f = {p['f']} Hz  n = {out['n']}  t = {out['t']} s  "

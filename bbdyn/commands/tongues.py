@@ -1,13 +1,34 @@
 """`bbdyn tongues --alpha 0.5 --kmax 3 [--A 0.1 --g 9800] [--json]`: k/1 tongue edges."""
 
+from bbdyn.commands import PARAM_DEFAULTS, duration, finite, integer_in, jsonable, param_help
+
 HELP = "k/1 Arnold tongue edges of the flat ball: closed form and from the exact map's multipliers"
+
+#: Highest accepted ``--kmax``: the numeric edges of each k cost two root searches along
+#: the exact map, ``SECONDS_PER_K`` (measured on one core for k <= 200, alpha 0.1 to 0.9).
+KMAX_MAX = 1000
+SECONDS_PER_K = 0.004
+kmax_type = integer_in(
+    "kmax", 1, KMAX_MAX,
+    lambda k: f"the numeric edges cost ~{SECONDS_PER_K * 1e3:g} ms per k: about "
+    f"{duration(k * SECONDS_PER_K)} for {k}" if k > KMAX_MAX else "",
+)  # fmt: skip
 
 
 def add_arguments(parser) -> None:
-    parser.add_argument("--alpha", type=float, default=0.5, help="restitution (default 0.5)")
-    parser.add_argument("--kmax", type=int, default=3, help="largest k (default 3)")
-    parser.add_argument("--A", type=float, default=0.1, help="amplitude in mm (default 0.1)")
-    parser.add_argument("--g", type=float, default=9800.0, help="gravity in mm/s^2 (default 9800)")
+    parser.add_argument(
+        "--alpha", type=finite, default=PARAM_DEFAULTS["alpha"],
+        help=param_help("alpha", "normal restitution"),
+    )  # fmt: skip
+    parser.add_argument(
+        "--kmax", type=kmax_type, default=3, help="largest k (default: %(default)s)"
+    )
+    parser.add_argument(
+        "--A", type=finite, default=PARAM_DEFAULTS["A"], help=param_help("A", "amplitude in mm")
+    )
+    parser.add_argument(
+        "--g", type=finite, default=PARAM_DEFAULTS["g"], help=param_help("g", "gravity in mm/s^2")
+    )
     parser.add_argument("--json", action="store_true", help="print a JSON list, one object per k")
 
 
@@ -20,7 +41,7 @@ def run(args) -> int:
     table = tongue_table(args.alpha, args.kmax, args.A, args.g, numeric=numeric)
     rows = table.rows()
     if args.json:
-        print(json.dumps(rows, indent=2))
+        print(json.dumps(jsonable(rows), indent=2))
         return 0
     print(f"k/1 tongues, alpha = {args.alpha}, A = {args.A} mm, g = {args.g} mm/s^2")
     print(
