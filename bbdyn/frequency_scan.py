@@ -35,11 +35,16 @@ from bbdyn.params import Params
 from bbdyn.results import Result, make_meta
 
 __all__ = [
+    "MAX_POINTS",
     "P_FLAG",
     "FrequencyScanScene",
+    "check_scan_size",
+    "diffusion_fit",
     "diffusion_point",
     "frequency_grid",
     "frequency_scan",
+    "grid_size",
+    "point_bytes",
     "scene_scan",
     "tongue_intervals",
 ]
@@ -53,19 +58,37 @@ D_WINDOW = (0.5, 1.0)
 #: Successive windows of D: N_WINDOWS equal pieces of [WINDOWS_START t, t].
 N_WINDOWS = 4
 WINDOWS_START = 0.2
+#: MSD samples of a scan point (the default of diffusion_point).
+N_SAMPLES = 201
+#: Most frequencies in one scan: a larger grid is almost surely a slip in f_step.
+MAX_POINTS = 100_000
 
 
-def frequency_grid(f_start: float, f_stop: float, f_step: float) -> np.ndarray:
-    """Frequencies ``f_start, f_start + f_step, ...`` up to ``f_stop`` (included), Hz.
+def point_bytes(n_samples: int = N_SAMPLES) -> float:
+    """Disk taken by one stored point of ``diffusion_point`` (.npz and .json), bytes.
 
-    Rounded to 1e-9 Hz so that a grid point is the same number on every machine.
-
-    Examples
-    --------
-    >>> g = frequency_grid(49.8, 95.0, 0.2)
-    >>> g.size, float(g[-1])
-    (227, 95.0)
+    About 9.7 kB whatever the settings (some 45 outputs, each with its own zip entry and
+    .npy header, and the metadata) plus 16 bytes per MSD sample (``msd``, ``sample_times``).
     """
+    return 9_700.0 + 16.0 * n_samples
+
+
+def _bytes_text(nbytes: float) -> str:
+    for unit, size in (("TB", 1e12), ("GB", 1e9), ("MB", 1e6), ("kB", 1e3)):
+        if nbytes >= size:
+            return f"{nbytes / size:.3g} {unit}"
+    return f"{nbytes:.3g} B"
+
+
+def _cpu_text(seconds: float) -> str:
+    for unit, size in (("years", 365.25 * 86400), ("days", 86400), ("h", 3600), ("min", 60)):
+        if seconds >= size:
+            return f"{seconds / size:.3g} {unit}"
+    return f"{seconds:.3g} s"
+
+
+def grid_size(f_start: float, f_stop: float, f_step: float) -> int:
+    """Number of frequencies of ``frequency_grid(f_start, f_stop, f_step)``, without building it."""
     f_start, f_stop, f_step = float(f_start), float(f_stop), float(f_step)
     if not (math.isfinite(f_start) and f_start > 0):
         raise ValueError(f"f_start must be a finite frequency > 0 Hz, got {f_start}")
@@ -73,8 +96,85 @@ def frequency_grid(f_start: float, f_stop: float, f_step: float) -> np.ndarray:
         raise ValueError(f"f_stop must be finite and >= f_start = {f_start} Hz, got {f_stop}")
     if not (math.isfinite(f_step) and f_step > 0):
         raise ValueError(f"f_step must be a finite step > 0 Hz, got {f_step}")
-    count = math.floor((f_stop - f_start) / f_step + 1e-9) + 1
-    return np.round(f_start + f_step * np.arange(count), 9)
+    return math.floor((f_stop - f_start) / f_step + 1e-9) + 1
+
+
+def frequency_grid(f_start: float, f_stop: float, f_step: float) -> np.ndarray:
+    """Frequencies ``f_start, f_start + f_step, ...`` up to ``f_stop`` (included), Hz.
+
+    Rounded to 1e-9 Hz so that a grid point is the same number on every machine.
+    A grid of more than ``MAX_POINTS`` frequencies is refused before it is built.
+
+    Examples
+    --------
+    >>> g = frequency_grid(49.8, 95.0, 0.2)
+    >>> g.size, float(g[-1])
+    (227, 95.0)
+    """
+    count = grid_size(f_start, f_stop, f_step)
+    if count > MAX_POINTS:
+        disk = _bytes_text(count * point_bytes())
+        raise ValueError(
+            f"f_start={f_start}, f_stop={f_stop}, f_step={f_step} give {count:.3g} frequencies "
+            f"(about {disk} of disk), more than the limit of {MAX_POINTS}: choose a larger "
+            "f_step or a narrower range, or split the scan"
+        )
+    return np.round(float(f_start) + float(f_step) * np.arange(count), 9)
+
+
+def _check_point_arguments(params: Params, n, t, transient, n_samples, check) -> int:
+    """Validate the arguments of ``diffusion_point`` at ``params``; returns ``n`` as an int."""
+    from bbdyn.ensemble import check_n, check_run
+
+    n = check_n(n)
+    if int(n_samples) != n_samples or n_samples < 11:
+        raise ValueError(f"n_samples must be an integer >= 11, got {n_samples}")
+    if int(check) != check or check < 0:
+        raise ValueError(f"check must be an integer >= 0, got {check}")
+    check_run(params, t, float(t) / 5 if transient is None else transient)
+    return n
+
+
+def check_scan_size(
+    f_lo: float,
+    f_hi: float,
+    n_points: int,
+    *,
+    n: int,
+    t: float,
+    transient: float | None = None,
+    n_samples: int = N_SAMPLES,
+) -> dict[str, float]:
+    """Check the arguments of a scan of ``diffusion_point`` over ``n_points`` frequencies in
+    ``[f_lo, f_hi]`` (Hz), estimate its CPU time and disk, and refuse it beyond the limits,
+    before anything is allocated or written.
+
+    CPU time follows the ensemble's conservative event model (``bbdyn.ensemble.check_size``;
+    real runs are faster), disk ``point_bytes``.  Limits: ``MAX_POINTS`` frequencies, and
+    every point within ``check_size``'s limits (checked at ``f_hi``, the costliest).
+    Returns ``{"cpu_s", "bytes"}``; raises ValueError with the estimate and what to do.
+    """
+    from bbdyn.ensemble import EVENT_COST_S, EVENTS_PER_PERIOD, check_size
+
+    for f in (f_lo, f_hi):
+        n = _check_point_arguments(Params(f=f), n, t, transient, n_samples, 0)
+    t = float(t)
+    cpu = n_points * n * t * 0.5 * (f_lo + f_hi) * EVENTS_PER_PERIOD * EVENT_COST_S
+    disk = n_points * point_bytes(n_samples)
+    said = (
+        f"{n_points:.3g} frequencies in [{f_lo:g}, {f_hi:g}] Hz with n={n} particles for "
+        f"t={t:g} s take up to about {_cpu_text(cpu)} of CPU time and {_bytes_text(disk)} of disk"
+    )
+    if n_points > MAX_POINTS:
+        raise ValueError(
+            f"scan too large: {said} (limit {MAX_POINTS} frequencies); choose a larger f_step "
+            "or a narrower frequency range, or split the scan"
+        )
+    try:
+        check_size(Params(f=f_hi), n, t, nbytes=8.0 * n * n_samples)
+    except ValueError as err:
+        raise ValueError(f"scan too large: {said}; one point: {err}") from None
+    return {"cpu_s": cpu, "bytes": disk}
 
 
 def _mean_err(values: np.ndarray) -> tuple[float, float]:
@@ -96,7 +196,7 @@ def diffusion_point(
     n: int = 1000,
     t: float = 200.0,
     transient: float | None = None,
-    n_samples: int = 201,
+    n_samples: int = N_SAMPLES,
     check: int = 100,
     n_boot: int = 1000,
     A: float | None = None,
@@ -142,27 +242,16 @@ def diffusion_point(
     >>> out["trapped"], out["D"], out["D_err"]
     (1, 0.0, 0.0)
     """
-    from bbdyn.diffusion import (
-        einstein_D,
-        einstein_D_bootstrap,
-        einstein_D_windows,
-        window_consistency,
-    )
     from bbdyn.ensemble import ensemble
 
     changes = {k: v for k, v in (("A", A), ("alpha", alpha), ("beta", beta)) if v is not None}
     params = Params(f=f, **changes)
-    if int(n) != n or n < 2:
-        raise ValueError(f"n must be an integer >= 2 (a standard error needs two), got {n}")
-    if int(n_samples) != n_samples or n_samples < 11:
-        raise ValueError(f"n_samples must be an integer >= 11, got {n_samples}")
-    if int(check) != check or check < 0:
-        raise ValueError(f"check must be an integer >= 0, got {check}")
+    n = _check_point_arguments(params, n, t, transient, n_samples, check)
     ic_seed, boot_seed = seed_sequence.spawn(2)
     # ensemble() seeds np.random.SeedSequence(seed): hand it the child's entropy words
     seed = ic_seed.generate_state(4).tolist()
     times = np.linspace(0.0, float(t), int(n_samples))
-    res = ensemble(params, n=int(n), t=t, seed=seed, transient=transient, sample_times=times)
+    res = ensemble(params, n=n, t=t, seed=seed, transient=transient, sample_times=times)
     disp = res["displacement"]
     window = res.meta["window_periods"]
 
@@ -178,13 +267,7 @@ def diffusion_point(
         out.update(D=0.0, D_err=0.0, D_boot_err=0.0, D_boot_lo=0.0, D_boot_hi=0.0)
         out.update(D_windows=zeros, D_windows_err=zeros, D_windows_p=1.0, D_converged=1)
     else:
-        out["D"], out["D_err"] = (float(v) for v in einstein_D(times, disp, D_WINDOW))
-        se, lo, hi = einstein_D_bootstrap(times, disp, D_WINDOW, n_boot, boot_seed)
-        out.update(D_boot_err=se, D_boot_lo=lo, D_boot_hi=hi)
-        _, d_w, se_w = einstein_D_windows(times, disp, N_WINDOWS, WINDOWS_START)
-        _, _, p = window_consistency(times, disp, N_WINDOWS, WINDOWS_START)
-        out.update(D_windows=d_w, D_windows_err=se_w, D_windows_p=p)
-        out["D_converged"] = int(p >= P_FLAG)
+        out.update(diffusion_fit(times, disp, boot_seed, n_boot))
     out["msd"] = np.mean(disp**2, axis=0)
     out["sample_times"] = times
 
@@ -203,6 +286,32 @@ def diffusion_point(
     return out
 
 
+def diffusion_fit(times, disp, boot_seed, n_boot: int = 1000) -> dict[str, float | np.ndarray]:
+    """D of a scan point from displacements ``disp`` (n, m) in mm at ``times`` (m,) in s.
+
+    ``D, D_err``: Einstein slope over the late window ``D_WINDOW`` = [t/2, t] (mm^2/s);
+    ``D_boot_err, D_boot_lo, D_boot_hi``: its bootstrap (``n_boot`` resamples, seed
+    ``boot_seed``); ``D_windows, D_windows_err, D_windows_p, D_converged``: the window
+    consistency check (module docstring).
+    """
+    from bbdyn.diffusion import (
+        einstein_D,
+        einstein_D_bootstrap,
+        einstein_D_windows,
+        window_consistency,
+    )
+
+    out: dict[str, float | np.ndarray] = {}
+    out["D"], out["D_err"] = (float(v) for v in einstein_D(times, disp, D_WINDOW))
+    se, lo, hi = einstein_D_bootstrap(times, disp, D_WINDOW, n_boot, boot_seed)
+    out.update(D_boot_err=se, D_boot_lo=lo, D_boot_hi=hi)
+    _, d_w, se_w = einstein_D_windows(times, disp, N_WINDOWS, WINDOWS_START)
+    _, _, p = window_consistency(times, disp, N_WINDOWS, WINDOWS_START)
+    out.update(D_windows=d_w, D_windows_err=se_w, D_windows_p=p)
+    out["D_converged"] = int(p >= P_FLAG)
+    return out
+
+
 def _energy_drift(params: Params, res, seed, m: int, t: float, window) -> dict[str, float]:
     """Late minus early half of the energy window for the first ``m`` particles."""
     from bbdyn.ensemble import ensemble
@@ -215,12 +324,13 @@ def _energy_drift(params: Params, res, seed, m: int, t: float, window) -> dict[s
         return nan
     # same seed and indices: the first m particles repeat their trajectories exactly;
     # half periods off the window edges, so that ceil / floor of (time f) give p0 and mid
+    # (a window from p0 = 0 starts at transient 0: ceil(0) = 0, and time starts there)
     early = ensemble(
         params,
         n=m,
         t=(mid + 0.5) / params.f,
         seed=seed,
-        transient=(p0 - 0.5) / params.f,
+        transient=max(p0 - 0.5, 0.0) / params.f,
         observables=("energy",),
     )
     if early.meta["window_periods"] != [p0, mid]:
@@ -252,17 +362,23 @@ def frequency_scan(
 ):
     """Run ``diffusion_point`` over ``frequencies`` with ``bbdyn.scan.run_scan``.
 
-    Every finished frequency is stored in ``out_dir`` at once; run again with the same
-    arguments to resume.  Returns the ``ScanResult`` (docs/scans.md).
+    The arguments are checked at every frequency, and the scan's size (``check_scan_size``),
+    before anything is written.  Every finished frequency is stored in ``out_dir`` at once;
+    run again with the same arguments to resume.  Returns the ``ScanResult`` (docs/scans.md).
     """
     from bbdyn.scan import run_scan
 
+    freqs = [float(f) for f in frequencies]
+    if freqs:  # run_scan names an empty or non-finite list
+        check_scan_size(min(freqs), max(freqs), len(freqs), n=n, t=t, transient=transient)
+        for f in freqs:
+            _check_point_arguments(Params(f=f), n, t, transient, N_SAMPLES, 0)
     kwargs = {"n": int(n), "t": float(t)}
     if transient is not None:
         kwargs["transient"] = float(transient)
     compute = functools.partial(diffusion_point, **kwargs)
     return run_scan(
-        [float(f) for f in frequencies],
+        freqs,
         compute,
         out_dir=out_dir,
         seed=seed,

@@ -211,14 +211,19 @@ def gk_scan(
     """Run ``gk_point`` over ``frequencies`` (Hz) with ``bbdyn.scan.run_scan``.
 
     Every finished frequency is stored in ``out_dir`` at once; the same call resumes an
-    interrupted scan (docs/scans.md).  Returns the ``ScanResult``: ``f`` and every output
+    interrupted scan (docs/scans.md); n and t are checked at every frequency before
+    anything is written.  Returns the ``ScanResult``: ``f`` and every output
     of ``gk_numbers`` stacked over frequencies (``D_n`` has shape (n_f, nmax + 1)).
     """
+    from bbdyn.ensemble import check_n, check_run
     from bbdyn.scan import run_scan
 
-    kwargs = {"n": int(n), "t": float(t), "nmax": int(nmax), "n_boot": int(n_boot)}
+    freqs = [float(f) for f in frequencies]
+    for f in freqs:  # before anything is written: a refused scan leaves no folder
+        check_run(Params(f=f), t, float(t) / 5)
+    kwargs = {"n": check_n(n), "t": float(t), "nmax": int(nmax), "n_boot": int(n_boot)}
     return run_scan(
-        [float(f) for f in frequencies],
+        freqs,
         functools.partial(gk_point, **kwargs),
         out_dir=out_dir,
         seed=seed,

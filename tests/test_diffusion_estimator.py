@@ -76,3 +76,46 @@ def test_bad_shapes_are_refused():
         einstein_D(np.arange(1.0, 5.0), np.ones((3, 5)))
     with pytest.raises(ValueError, match="at least 2 particles"):
         einstein_D(np.arange(1.0, 5.0), np.ones((1, 4)))
+
+
+# ---- the scan point fits the late window [t/2, t] (issue 10) ---------------------------------
+def _changing_walk(rng, n, times, D_early, D_late, t_switch):
+    """Brownian paths with diffusion D_early before t_switch and D_late after it."""
+    dt = np.diff(times, prepend=0.0)
+    local = np.where(times <= t_switch, D_early, D_late)
+    return np.cumsum(rng.normal(0.0, 1.0, (n, times.size)) * np.sqrt(2 * local * dt), axis=1)
+
+
+def test_scan_point_fits_the_late_half_of_a_walk_with_a_transient():
+    """A walk diffusing 4x faster before t/2: the scan point's D is the late D, many errors
+    away from the early one (the MSD slope over [0, t/2] would be 4.0)."""
+    from bbdyn.frequency_scan import diffusion_fit
+
+    rng = np.random.default_rng(21)
+    times = np.linspace(0.0, 20.0, 201)
+    x = _changing_walk(rng, 3000, times, D_early=4.0, D_late=1.0, t_switch=10.0)
+    out = diffusion_fit(times, x, np.random.SeedSequence(1), n_boot=50)
+    assert abs(out["D"] - 1.0) < 4 * out["D_err"]
+    assert abs(out["D"] - 4.0) > 20 * out["D_err"]
+    # the early window would find the early D: the walk is what it claims to be
+    D_early, se_early = einstein_D(times, x, window=(0.0, 0.5))
+    assert abs(D_early - 4.0) < 4 * se_early
+
+
+def test_scan_point_D_is_einstein_D_over_the_late_window_of_its_own_data():
+    """diffusion_point's D equals einstein_D over [t/2, t] of the same ensemble, rebuilt from
+    the point's seed (a particle's trajectory depends only on the seed and its index)."""
+    from bbdyn import Params
+    from bbdyn.ensemble import ensemble
+    from bbdyn.frequency_scan import diffusion_point
+
+    f, n, t = 85.2, 40, 4.0
+    seq = np.random.SeedSequence(7)
+    out = diffusion_point(f, seq, n=n, t=t, n_boot=10, check=0)
+    seed = np.random.SeedSequence(7).spawn(2)[0].generate_state(4).tolist()
+    times = np.linspace(0.0, t, 201)
+    res = ensemble(Params(f=f), n=n, t=t, seed=seed, sample_times=times)
+    D, se = einstein_D(times, res["displacement"], window=(0.5, 1.0))
+    assert out["trapped"] == 0
+    assert (out["D"], out["D_err"]) == (D, se)
+    np.testing.assert_array_equal(out["msd"], np.mean(res["displacement"] ** 2, axis=0))

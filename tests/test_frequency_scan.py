@@ -230,3 +230,76 @@ def test_scan_on_a_fine_grid_keeps_every_point(tmp_path):
     one = [diffusion_point(f, np.random.SeedSequence(2, spawn_key=(round(f * 10**9),)), **TINY)
            for f in freqs]  # fmt: skip
     np.testing.assert_array_equal(scan["E"], [o["E"] for o in one])
+
+
+# ---- arguments checked before anything is written (issue 10) ---------------------------------
+def test_transient_zero_averages_from_the_start(tmp_path):
+    """transient = 0 is allowed (ensemble: [0, t)); the energy drift check then splits
+    [0, floor(t f)] periods like any other window (it used to ask for a negative transient)."""
+    scan = frequency_scan([85.2], out_dir=tmp_path / "s", seed=1, workers=1, transient=0.0,
+                          **TINY)  # fmt: skip
+    assert math.isfinite(scan["E_drift"][0])
+    res = ensemble(Params(f=85.2), n=6, t=1.0, seed=0, transient=0.0, observables=("energy",))
+    assert res.meta["window_periods"] == [0, math.floor(85.2)]
+
+
+@pytest.mark.parametrize(
+    "option, value, match",
+    [
+        ("--transient", "2", "transient"),
+        ("--transient", "-1", "transient"),
+        ("--n", "1", "n must"),
+        ("--t", "0", "t must"),
+        ("--t", "nan", "t must"),
+        ("--f-step", "1e-12", "f_step"),
+        ("--n", "1000000000", "n="),
+        ("--t", "1e12", "t="),
+        ("--workers", "0", "workers"),
+    ],
+    ids=[
+        "transient>t",
+        "negative-transient",
+        "n=1",
+        "t=0",
+        "t=nan",
+        "tiny-step",
+        "huge-n",
+        "huge-t",
+        "workers=0",
+    ],  # fmt: skip
+)
+def test_refused_scan_writes_nothing(tmp_path, capsys, option, value, match):
+    from bbdyn.cli import main
+
+    out = tmp_path / "scan"
+    args = ["scan", "--f-start", "60", "--f-stop", "61", "--n", "4", "--t", "1", "--out", str(out)]
+    try:
+        code = main([*args, option, value])
+    except SystemExit as stop:
+        code = stop.code
+    assert code != 0
+    err = capsys.readouterr().err
+    assert match in err and "Traceback" not in err, err
+    assert not out.exists(), "a refused scan left files behind"
+
+
+def test_absurd_grid_is_refused_with_its_cost_before_allocating():
+    from bbdyn.frequency_scan import MAX_POINTS, check_scan_size
+
+    with pytest.raises(ValueError, match="f_step") as info:
+        frequency_grid(49.8, 95.0, 1e-12)
+    assert "4.52e+13 frequencies" in str(info.value)
+    # the largest allowed grid is fine
+    assert frequency_grid(0.5, 0.5 + (MAX_POINTS - 1) * 0.001, 0.001).size == MAX_POINTS
+    with pytest.raises(ValueError, match="CPU") as info:
+        check_scan_size(49.8, 95.0, 227, n=10**4, t=1e7)
+    assert "disk" in str(info.value)
+
+
+def test_disk_estimate_matches_a_stored_point(tmp_path):
+    """The estimate of the disk a scan needs is the size of the points it writes (+-50 %)."""
+    from bbdyn.frequency_scan import point_bytes
+
+    frequency_scan([85.2], out_dir=tmp_path / "s", seed=1, workers=1, **TINY)
+    size = sum(p.stat().st_size for p in (tmp_path / "s" / "points").iterdir())
+    assert 0.5 < point_bytes() / size < 1.5

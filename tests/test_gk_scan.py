@@ -100,3 +100,16 @@ def test_gk_command_text(capsys):
     assert main(["gk", "--f", "85.2", "--n", "10", "--t", "5", "--nmax", "2"]) == 0
     text = capsys.readouterr().out
     assert "Einstein D" in text and "D_rw" in text and "p_f, p_b" in text
+
+
+@pytest.mark.parametrize(
+    "kwargs, match",
+    [({"n": 1}, "n must"), ({"t": 0.0}, "t must"), ({"t": 0.01}, "no room")],
+    ids=["one-particle", "no-time", "no-whole-period"],
+)
+def test_refused_scan_writes_nothing(tmp_path, kwargs, match):
+    """Bad arguments are refused before the scan folder is created (issue 10)."""
+    args = {"n": 10, "t": 5.0, "nmax": 2, "n_boot": 10} | kwargs
+    with pytest.raises(ValueError, match=match):
+        gk_scan([85.0, 85.2], out_dir=tmp_path / "s", seed=0, progress=False, **args)
+    assert not (tmp_path / "s").exists()

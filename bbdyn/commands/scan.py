@@ -33,8 +33,12 @@ def run(args) -> int:
     import json
     import sys
 
-    from bbdyn.frequency_scan import frequency_grid, frequency_scan
+    from bbdyn.frequency_scan import check_scan_size, frequency_grid, frequency_scan, grid_size
 
+    # size and arguments first: a refused scan allocates and writes nothing
+    count = grid_size(args.f_start, args.f_stop, args.f_step)
+    f_last = args.f_start + (count - 1) * args.f_step
+    check_scan_size(args.f_start, f_last, count, n=args.n, t=args.t, transient=args.transient)
     grid = frequency_grid(args.f_start, args.f_stop, args.f_step)
     log = open(args.progress, "a", buffering=1) if args.progress else None  # noqa: SIM115
     try:
