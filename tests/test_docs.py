@@ -154,3 +154,14 @@ def test_wedge_and_high_bounce_numbers():
     assert int(re.search(r"After (\d+) reflections", text).group(1)) == WEDGE_MAX_REFLECTIONS
     error = re.search(r"too low \(by ([0-9.]+) % in Gamma for k = 1", MODEL_TEXT).group(1)
     assert round(-100 * tongue_errors(1, 0.5)["gamma_hi"], 1) == float(error)
+
+
+def test_b3_key_numbers_in_diffusion_page_come_from_the_figure():
+    """Every B3 key number stated in docs/diffusion.md is the one the committed figure recorded."""
+    import json
+
+    meta = json.loads((ROOT / "docs" / "figures" / "B3_statcost.json").read_text())["meta"]
+    page = section((ROOT / "docs" / "diffusion.md").read_text(encoding="utf-8"), "B3")
+    stated = re.findall(r"^\* (f = [\d.]+ Hz): (.+)$", page, flags=re.M)
+    assert stated, "no key numbers stated in the B3 section"
+    assert dict(stated) == meta["key_numbers"]
