@@ -1,26 +1,20 @@
 """The D_a code equals the sympy derivation in derivations/random_walk.py."""
 
-import importlib.util
 import math
-from pathlib import Path
 
 import numpy as np
 import pytest
 import sympy as sp
+from derivation_loader import load_derivation
 
 from bbdyn import Params
 from bbdyn.approx.random_walk import analytic_diffusion
 from bbdyn.core.tolerances import CLOSED_FORM_REL
 
-PATH = Path(__file__).resolve().parents[1] / "derivations" / "random_walk.py"
-
 
 @pytest.fixture(scope="module")
 def derivation():
-    spec = importlib.util.spec_from_file_location("derivation_random_walk", PATH)
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
+    return load_derivation("random_walk")
 
 
 def test_derivation_gives_the_model_md_formula(derivation):

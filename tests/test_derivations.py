@@ -1,12 +1,11 @@
 """The expressions bbdyn/tongues.py uses equal the ones derived in derivations/flat_tongues.py."""
 
-import importlib.util
 import math
-from pathlib import Path
 
 import numpy as np
 import pytest
 import sympy as sp
+from derivation_loader import load_derivation
 
 from bbdyn import Params
 from bbdyn.core.flat_jacobian import flat_map_jacobian
@@ -18,10 +17,7 @@ from bbdyn.tongues import (
     tongue_gamma_lo,
 )
 
-_PATH = Path(__file__).resolve().parents[1] / "derivations" / "flat_tongues.py"
-_spec = importlib.util.spec_from_file_location("flat_tongues", _PATH)
-D = importlib.util.module_from_spec(_spec)
-_spec.loader.exec_module(D)
+D = load_derivation("flat_tongues")
 
 
 def _same(a, b):

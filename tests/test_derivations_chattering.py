@@ -1,29 +1,24 @@
 """The chattering sums of the kernels are the series summed in derivations/chattering.py,
 and both equal a bounce-by-bounce sum."""
 
-import importlib.util
 import math
-from pathlib import Path
 
 import numpy as np
 import pytest
 import sympy as sp
+from derivation_loader import load_derivation
 
 from bbdyn import Params
 from bbdyn.core.billiard import chatter_sum
 from bbdyn.core.flat import chatter_time
 from bbdyn.core.plate import sin_cos
 
-PATH = Path(__file__).resolve().parents[1] / "derivations" / "chattering.py"
 N_ULP = 4  # the kernels and the derived forms order the same operations differently
 
 
 @pytest.fixture(scope="module")
 def derivation():
-    spec = importlib.util.spec_from_file_location("derivation_chattering", PATH)
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
+    return load_derivation("chattering")
 
 
 def _within_ulp(got, want, scale):

@@ -1,26 +1,20 @@
 """The symbol route of bbdyn/approx/green_kubo.py is the series derived in
 derivations/green_kubo_symbols.py (symbols relative to h_0)."""
 
-import importlib.util
-from pathlib import Path
-
 import numpy as np
 import pytest
 import sympy as sp
+from derivation_loader import load_derivation
 
 from bbdyn.approx import JumpData, green_kubo
 from bbdyn.approx.green_kubo import _series, _words
 
-PATH = Path(__file__).resolve().parents[1] / "derivations" / "green_kubo_symbols.py"
 N = 3
 
 
 @pytest.fixture(scope="module")
 def derivation():
-    spec = importlib.util.spec_from_file_location("derivation_green_kubo_symbols", PATH)
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
+    return load_derivation("green_kubo_symbols")
 
 
 def test_symbol_form_equals_correlation_form_on_any_joint_distribution(derivation):
