@@ -29,11 +29,20 @@ def add_arguments(parser) -> None:
     )
 
 
+def _show_warning(message, category, filename, lineno, file=None, line=None) -> None:
+    """Warnings of the scan (a damaged point computed again) as one line on stderr."""
+    import sys
+
+    print(f"bbdyn scan: warning: {message}", file=sys.stderr)
+
+
 def run(args) -> int:
     import json
     import sys
+    import warnings
 
     from bbdyn.frequency_scan import check_scan_size, frequency_grid, frequency_scan, grid_size
+    from bbdyn.scan import ScanBusyError, ScanStorageError, SchedulerUnreachableError
 
     # size and arguments first: a refused scan allocates and writes nothing
     count = grid_size(args.f_start, args.f_stop, args.f_step)
@@ -42,22 +51,27 @@ def run(args) -> int:
     grid = frequency_grid(args.f_start, args.f_stop, args.f_step)
     log = open(args.progress, "a", buffering=1) if args.progress else None  # noqa: SIM115
     try:
-        scan = frequency_scan(
-            grid,
-            out_dir=args.out,
-            seed=args.seed,
-            n=args.n,
-            t=args.t,
-            transient=args.transient,
-            resume=args.resume,
-            workers=args.workers,
-            scheduler=args.scheduler,
-            progress=log if log else True,
-        )
+        with warnings.catch_warnings():
+            warnings.showwarning = _show_warning
+            scan = frequency_scan(
+                grid,
+                out_dir=args.out,
+                seed=args.seed,
+                n=args.n,
+                t=args.t,
+                transient=args.transient,
+                resume=args.resume,
+                workers=args.workers,
+                scheduler=args.scheduler,
+                progress=log if log else True,
+            )
     except FileExistsError:
         raise ValueError(
             f"{args.out} already holds a scan: add --resume to finish it, or choose a new --out"
         ) from None
+    except (ScanBusyError, ScanStorageError, SchedulerUnreachableError) as err:
+        print(f"bbdyn scan: error: {err}", file=sys.stderr)  # it says what to do
+        return 1
     finally:
         if log:
             log.close()
