@@ -1,4 +1,4 @@
-"""Single trajectories of the bouncing ball billiard (MODEL.md section 2).
+"""Single trajectories of the bouncing ball billiard (docs/model.md §2).
 
 ``simulate`` validates its input once, runs the exact event kernel
 ``bbdyn.core.billiard.billiard_event`` and returns a ``BilliardTrajectory``:
@@ -51,7 +51,7 @@ def check_params(params: Params) -> None:
 def state_from_section(
     params: Params, s: float, vx: float, vy: float, *, tile: float = 0.0, phase: float = 0.0
 ) -> tuple[float, float, float, float, float, float, int]:
-    """Kernel state of a post-collision point ``(s, vx+, vy+)`` on the floor (MODEL.md section 3).
+    """Kernel state of a post-collision point ``(s, vx+, vy+)`` on the floor (docs/model.md §3).
 
     Parameters
     ----------
@@ -98,7 +98,7 @@ def state_from_section(
 
 
 class BilliardTrajectory(Result):
-    """Collision record of one billiard trajectory (MODEL.md section 2, suspended flow).
+    """Collision record of one billiard trajectory (docs/model.md §2, suspended flow).
 
     Row 0 is the initial state; row i > 0 the state just after event i.
     Arrays (length n + 1): ``periods`` (whole driving periods), ``phase`` (w t mod
@@ -145,7 +145,7 @@ def simulate(
     state0 : tuple, optional
         Kernel state ``(periods, phase, tile, xi, vx, vyrel, kind)``.
     s0, vx0, vy0 : float, optional
-        Alternatively, a post-collision state at t = 0 on tile 0 (MODEL.md section 3),
+        Alternatively, a post-collision state at t = 0 on tile 0 (docs/model.md §3),
         converted by ``state_from_section``.
 
     Returns

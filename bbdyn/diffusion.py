@@ -1,4 +1,4 @@
-"""Diffusion coefficient from the mean squared displacement (MODEL.md section 3).
+"""Diffusion coefficient from the mean squared displacement (docs/model.md §3).
 
 Einstein: ``D = lim <(x(t) - x(0))^2> / (2 t)``.  It is estimated from the slope
 of the ensemble MSD over a late time window, not from one time, because the MSD

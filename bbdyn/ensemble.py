@@ -1,4 +1,4 @@
-"""Ensembles of billiard particles and their steady-state observables (MODEL.md section 3).
+"""Ensembles of billiard particles and their steady-state observables (docs/model.md §3).
 
 ``ensemble`` draws (or takes) initial conditions, runs ``core.ensemble.run_ensemble``
 in parallel over particles and returns an ``EnsembleResult``: per-particle
@@ -74,7 +74,7 @@ class Box:
 
 
 def reference_box(params: Params) -> Box:
-    """The reference box of MODEL.md: 0 <= s <= s_max, |vx+| <= 40, 0 < vy+ <= 40 (mm/s)."""
+    """The reference box of docs/model.md: 0 <= s <= s_max, |vx+| <= 40, 0 < vy+ <= 40 (mm/s)."""
     return Box(s=(0.0, params.s_max), vx=(-40.0, 40.0), vy=(0.0, 40.0))
 
 

@@ -1,4 +1,4 @@
-"""High-precision reference for the flat bouncing ball (MODEL.md section 1), with mpmath.
+"""High-precision reference for the flat bouncing ball (docs/model.md §1), with mpmath.
 
 An independent check of the numba kernel ``bbdyn.core.flat``: it uses the
 absolute-time form of the gap, a different root bracketing argument, and
@@ -50,7 +50,7 @@ def reference_impacts(
     """Impact sequence of the flat ball computed with mpmath at ``dps`` digits.
 
     The particle leaves the plate at ``t0 = phase0 / w`` (relative velocity
-    ``vrel0 > 0`` mm/s) and bounces with ``vrel+ = -alpha vrel-`` (MODEL.md, impact law).
+    ``vrel0 > 0`` mm/s) and bounces with ``vrel+ = -alpha vrel-`` (docs/model.md, impact law).
 
     Parameters
     ----------

@@ -1,4 +1,4 @@
-"""The flat bouncing ball: exact impact map, trajectories and ensembles (MODEL.md section 1).
+"""The flat bouncing ball: exact impact map, trajectories and ensembles (docs/model.md §1).
 
 User-facing layer over the numba kernel ``bbdyn.core.flat``: it validates the
 initial state once, runs the kernel, turns failures into exceptions and returns
@@ -169,7 +169,7 @@ def simulate_flat(
     periods0: int = 0,
     stuck: bool = False,
 ) -> FlatTrajectory:
-    """Iterate the exact flat-ball map for ``n_events`` events (MODEL.md section 1).
+    """Iterate the exact flat-ball map for ``n_events`` events (docs/model.md §1).
 
     Parameters
     ----------
@@ -290,7 +290,7 @@ def flat_ensemble(
 def flat_heights(traj: FlatTrajectory, t) -> tuple[np.ndarray, np.ndarray]:
     """Heights of the particle and the plate (mm) at times ``t`` (s) between events.
 
-    Between events the particle flies on the parabola of MODEL.md section 1,
+    Between events the particle flies on the parabola of docs/model.md §1,
     ``y = y_p(t_i) + v_i (t - t_i) - g (t - t_i)^2 / 2``; while stuck it rides the
     plate, ``y = y_p(t) = -A sin(w t)``.  Times outside [t_0, t_last] give NaN.
 

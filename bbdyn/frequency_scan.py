@@ -1,4 +1,4 @@
-"""Diffusion coefficient and steady-state energies across frequency (issue 4, MODEL.md section 3).
+"""Diffusion coefficient and steady-state energies across frequency (issue 4, docs/model.md §3).
 
 ``diffusion_point(f, seed_sequence, n=..., t=...)`` is the compute function of a
 frequency scan (``bbdyn.scan.run_scan``): one reference ensemble at ``f``, and
@@ -53,7 +53,7 @@ __all__ = [
 #: about two points are flagged by chance; a flag asks for a look, not a verdict.
 P_FLAG = 0.01
 
-#: Window of the Einstein fit, as fractions of t (MODEL.md: the long-time slope).
+#: Window of the Einstein fit, as fractions of t (docs/model.md: the long-time slope).
 D_WINDOW = (0.5, 1.0)
 #: Successive windows of D: N_WINDOWS equal pieces of [WINDOWS_START t, t].
 N_WINDOWS = 4
@@ -212,7 +212,7 @@ def diffusion_point(
     seed_sequence : numpy.random.SeedSequence
         The point's seed (``bbdyn.scan.point_seed``): initial conditions and bootstrap.
     n : int
-        Particles of the reference ensemble (MODEL.md section 3), >= 2.
+        Particles of the reference ensemble (docs/model.md §3), >= 2.
     t : float
         Simulated time (s).
     transient : float, optional
@@ -224,7 +224,7 @@ def diffusion_point(
     n_boot : int
         Bootstrap resamples of D.
     A, alpha, beta : float, optional
-        Other parameters (MODEL.md defaults if None).
+        Other parameters (default parameters (docs/model.md) if None).
 
     Returns
     -------

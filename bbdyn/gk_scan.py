@@ -1,6 +1,6 @@
-"""Random-walk and Green-Kubo approximations at one frequency, and as scan points (MODEL.md 4).
+"""Random-walk and Green-Kubo approximations at one frequency and as scan points (docs/model.md §4).
 
-``gk_run`` simulates the reference ensemble (MODEL.md section 3) recording the
+``gk_run`` simulates the reference ensemble (docs/model.md §3) recording the
 jumps between traps, and evaluates at the same parameters
 
 * the Einstein D with its standard error (``EnsembleResult.D``, late-window MSD slope);
@@ -45,7 +45,7 @@ def gk_run(
     transient: float | None = None,
     threads: int | None = None,
 ):
-    """Simulate the reference ensemble and evaluate every approximation of MODEL.md section 4.
+    """Simulate the reference ensemble and evaluate every approximation of docs/model.md §4.
 
     Parameters
     ----------

@@ -1,4 +1,4 @@
-"""High-bounce approximation of the flat ball: the dissipative standard map (MODEL.md section 1).
+"""High-bounce approximation of the flat ball: the dissipative standard map (docs/model.md §1).
 
 If the plate's displacement is neglected against the flight height, a ball
 leaving at phase ``theta`` with absolute upward velocity ``v`` lands after

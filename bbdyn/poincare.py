@@ -1,8 +1,8 @@
-"""Poincaré projections of the billiard: collisions on the attractor (MODEL.md section 2).
+"""Poincaré projections of the billiard: collisions on the attractor (docs/model.md §2).
 
 The suspended flow is recorded at every event ``(s, vx+, vy+, t, l)``; this
 module collects it *on the attractor*, after a transient, and draws its
-projections (s, vx+) and (y, vy+) (SCENES.md S6, S7, S8).
+projections (s, vx+) and (y, vy+) (scenes S6, S7, S8 of docs/model.md §6).
 
 Two sources:
 
@@ -22,7 +22,7 @@ in the order of their first visit.
 
 Tiny hops.  A collision is a *tiny hop* when the flight after it lasts less
 than ``TINY_HOP_PERIODS`` driving periods.  This is a display convention for
-the creeps of MODEL.md section 5 (long sequences of tiny hops), not physics:
+the creeps of docs/model.md §5 (long sequences of tiny hops), not physics:
 flight times of a chattering sequence spread continuously from 1e-8 periods
 up, so the threshold is placed well below the flights of the resonant motion
 (0.1 to 3 periods at 58 to 88.4 Hz).
@@ -65,7 +65,7 @@ _PROJECTIONS = {
 
 
 class PoincareResult(Result):
-    """Events of one or more trajectories on the attractor (MODEL.md section 2).
+    """Events of one or more trajectories on the attractor (docs/model.md §2).
 
     Arrays, one row per event (all particles concatenated, each in time order):
     ``periods`` (whole driving periods), ``phase`` (w t mod 2 pi, rad), ``t`` (s),
@@ -139,7 +139,7 @@ def poincare(
     seed=0,
     box=None,
 ) -> PoincareResult:
-    """Collisions on the attractor(s) reached from an ensemble (MODEL.md sections 2, 3).
+    """Collisions on the attractor(s) reached from an ensemble (docs/model.md §2, §3).
 
     Parameters
     ----------
@@ -236,7 +236,7 @@ def trajectory_pieces(
     """The continuous motion between events ``start`` and ``stop`` (rows of ``result``).
 
     Each interval is a parabola (after IMPACT or RELEASE) or the particle riding
-    the floor at fixed x (after STICK), MODEL.md section 2.  Times are measured
+    the floor at fixed x (after STICK), docs/model.md §2.  Times are measured
     from event ``start``, each interval's time as a difference of
     (periods, phase) so that long runs keep their precision.
 

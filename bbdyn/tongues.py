@@ -1,4 +1,4 @@
-"""Periodic orbits, their stability and the Arnold tongues of the flat ball (MODEL.md section 1).
+"""Periodic orbits, their stability and the Arnold tongues of the flat ball (docs/model.md §1).
 
 The exact impact map ``P: (theta, vrel) -> (theta', vrel')`` takes the phase
 ``theta = w t mod 2 pi`` of an impact and the relative velocity ``vrel = v - u``
@@ -63,15 +63,15 @@ __all__ = [
 
 # ---- closed forms (derivations/flat_tongues.py) ----------------------------------------------
 def tongue_gamma_lo(k, alpha, xp=math):
-    """Lower tongue edge ``Gamma_lo = pi k (1 - alpha) / (1 + alpha)`` (saddle-node, MODEL.md)."""
+    """Lower tongue edge ``Gamma_lo = pi k (1 - alpha) / (1 + alpha)`` (saddle-node)."""
     return xp.pi * k * (1 - alpha) / (1 + alpha)
 
 
 def tongue_gamma_hi(k, alpha, xp=math):
-    """Upper tongue edge (period doubling, MODEL.md, Luck & Mehta 1993).
+    """Upper tongue edge (period doubling, docs/model.md, Luck & Mehta 1993).
 
     ``Gamma_hi = sqrt(Gamma_lo^2 + [2 (1 + alpha^2) / (1 + alpha)^2]^2)``, which is
-    MODEL.md's ``pi sqrt([k (1-alpha)/(1+alpha)]^2 + [2 (1+alpha^2) / (pi (1+alpha)^2)]^2)``.
+    docs/model.md's ``pi sqrt([k (1-alpha)/(1+alpha)]^2 + [2 (1+alpha^2) / (pi (1+alpha)^2)]^2)``.
     """
     return xp.sqrt(
         tongue_gamma_lo(k, alpha, xp) ** 2 + (2 * (1 + alpha**2) / (1 + alpha) ** 2) ** 2

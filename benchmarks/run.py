@@ -1,4 +1,4 @@
-"""Benchmarks (SCENES.md B2): the same as ``bbdyn bench TARGET``.
+"""Benchmarks (scene B2, docs/model.md §6): the same as ``bbdyn bench TARGET``.
 
 Usage: ``python benchmarks/run.py flat|billiard [--quick] [--json] [--out PNG]``.
 """

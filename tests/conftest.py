@@ -52,5 +52,5 @@ from bbdyn import Params  # noqa: E402
 
 @pytest.fixture
 def params58() -> Params:
-    """Defaults of MODEL.md at 58 Hz (inside the 1/1 tongue)."""
+    """Default parameters (docs/model.md) at 58 Hz (inside the 1/1 tongue)."""
     return Params(f=58.0)

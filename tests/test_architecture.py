@@ -1,4 +1,4 @@
-"""The import direction of STYLE.md, enforced by reading imports."""
+"""The import direction of the layers (README, Layout), enforced by reading imports."""
 
 import ast
 import subprocess

@@ -22,7 +22,7 @@ ALL = ("displacement", "energy", "jumps", "record")
 
 
 def _xi_and_b(p, s):
-    """Independent geometry: contact point and arc height above the wedges (MODEL.md section 2)."""
+    """Independent geometry: contact point and arc height above the wedges (docs/model.md §2)."""
     xi = p.R * np.sin(s / p.R - math.asin(p.d / (2 * p.R)))
     return xi, np.sqrt(p.R**2 - xi**2) - math.sqrt(p.R**2 - p.d**2 / 4)
 

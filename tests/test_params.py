@@ -1,4 +1,4 @@
-"""Parameters: MODEL.md defaults, derived quantities, and refusal of invalid values."""
+"""Parameters: defaults (docs/model.md), derived quantities, and refusal of invalid values."""
 
 import itertools
 import math
@@ -15,7 +15,7 @@ def test_derived_quantities_match_model_md():
     p = Params(f=58.0)
     assert p.w == pytest.approx(2 * math.pi * 58.0, rel=1e-15)
     assert p.gamma == pytest.approx(0.1 * p.w**2 / 9800.0, rel=1e-15)
-    # MODEL.md quotes h ~ 0.020008 mm, s_max ~ 2.000534 mm, Gamma = 1 at 49.823 Hz.
+    # docs/model.md quotes h ~ 0.020008 mm, s_max ~ 2.000534 mm, Gamma = 1 at 49.823 Hz.
     assert p.h == pytest.approx(0.020008, abs=5e-7)
     assert p.s_max == pytest.approx(2.000534, abs=5e-7)
     assert p.f_gamma_one == pytest.approx(49.823, abs=5e-4)

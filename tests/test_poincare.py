@@ -95,7 +95,7 @@ def test_pieces_stay_above_the_floor(record):
 
 
 def test_collision_law_between_pieces(record):
-    """Pre-impact velocity from the parabola and post-impact velocity obey MODEL.md section 2."""
+    """Pre-impact velocity from the parabola and post-impact velocity obey docs/model.md §2."""
     kp = Params(**record.meta["params"]).kernel()
     rows = np.flatnonzero(record["particle"] == 2)
     i = rows[:-1]

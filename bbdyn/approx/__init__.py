@@ -1,9 +1,9 @@
-"""Random-walk and truncated Green-Kubo approximations (MODEL.md section 4).
+"""Random-walk and truncated Green-Kubo approximations (docs/model.md §4).
 
 Input convention: ``JumpData``
 ------------------------------
 The billiard simulator reports, per particle, the *jumps*: changes of trap
-(trap = wedge, MODEL.md section 4) between consecutive collisions, as integer
+(trap = wedge, docs/model.md §4) between consecutive collisions, as integer
 trap differences ``h / d`` (mostly +-1, never 0), with the time at which each
 jump happened.  The particles of an ensemble are concatenated CSR style:
 

@@ -1,4 +1,4 @@
-"""Escape time, jump lengths and random-walk diffusion (MODEL.md section 4).
+"""Escape time, jump lengths and random-walk diffusion (docs/model.md §4).
 
 * Escape time ``tau``: the inverse jump rate, pooled over the ensemble,
   ``tau = n_particles t_total / n_jumps`` (s), over all particles, including
@@ -99,7 +99,7 @@ def _check_jump_data(data: JumpData) -> None:
 
 
 def escape_time(data: JumpData) -> EscapeTime:
-    """Escape time ``tau = n_particles t_total / n_jumps`` (s), MODEL.md section 4.
+    """Escape time ``tau = n_particles t_total / n_jumps`` (s), docs/model.md §4.
 
     The error is the delta-method standard error of ``1 / rate`` with the rate's
     error from the spread of the per-particle jump counts:
@@ -139,7 +139,7 @@ def jump_length_distribution(data: JumpData) -> JumpLengths:
 
 
 def random_walk_diffusion(data: JumpData) -> RandomWalkEstimate:
-    """Random-walk diffusion coefficient ``D_rw = d^2 / (2 tau)`` (mm^2/s), MODEL.md section 4.
+    """Random-walk diffusion coefficient ``D_rw = d^2 / (2 tau)`` (mm^2/s), docs/model.md §4.
 
     ``D_rw`` is linear in the mean jump count, so its relative error is that of
     the rate; it is 0 (with NaN error) when no particle jumped.  ``D_rw`` assumes
@@ -155,7 +155,7 @@ def random_walk_diffusion(data: JumpData) -> RandomWalkEstimate:
 
 
 def analytic_diffusion(params: Params, r: float, r_err: float = 0.0) -> AnalyticDiffusion:
-    """Analytic random walk from the energy balance, MODEL.md section 4.
+    """Analytic random walk from the energy balance, docs/model.md §4.
 
     ``E = E_x + E_y + E_pot`` with ``E = A^2 w^2 / 2``, ``E_pot = g A``,
     ``E_y = r E_x`` gives ``E_x = (A^2 w^2 / 2 - g A) / (1 + r)`` and
@@ -204,7 +204,7 @@ def analytic_diffusion(params: Params, r: float, r_err: float = 0.0) -> Analytic
 
 
 def energy_ratio(E_x, E_y, E_x_err=None, E_y_err=None) -> EnergyRatio:
-    """Measured ratio ``r = E_y / E_x`` of steady-state kinetic energies (MODEL.md sections 3, 4).
+    """Measured ratio ``r = E_y / E_x`` of steady-state kinetic energies (docs/model.md §3, §4).
 
     Two forms of input:
 

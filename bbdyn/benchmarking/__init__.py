@@ -1,4 +1,4 @@
-"""Benchmarks (SCENES.md B2): timing helpers, reference methods and work-precision runs.
+"""Benchmarks (scene B2, docs/model.md §6): timing helpers, reference methods, work-precision.
 
 ``timing`` is generic (compile first, repeat, medians, ratios within one run);
 ``flat`` is the flat-ball benchmark; ``fixed_step`` the paper-like event finder

@@ -1,4 +1,4 @@
-"""Work-precision benchmark of the billiard (SCENES.md B2, issue 3 item 9).
+"""Work-precision benchmark of the billiard (scene B2, docs/model.md §6, issue 3 item 9).
 
 Speed: collisions per second of the exact kernel (``bbdyn.core.billiard``), single
 thread, median over repeats after compilation: one flight at a time from a set of
@@ -68,7 +68,7 @@ __all__ = [
     "table",
 ]
 
-#: The benchmark case: MODEL.md defaults at f = 85.2 Hz (the S7 frequency, ergodic
+#: The benchmark case: default parameters (docs/model.md) at f = 85.2 Hz (the S7 frequency, ergodic
 #: intermittent regime); the start state goes through ``transient`` events first.
 CASE = {"f": 85.2, "start": (0.0, 0.0, 0.0, 0.3, 10.0, 40.0, IMPACT), "transient": 20_000}
 
@@ -185,7 +185,7 @@ def flight_profile(state, kp, n_events):
 def reference_flight(kp, phase, xi0, vx, vyrel, k, tau_guess, dps: int = MP_DPS):
     """Contact time of one flight in mpmath, on tile offset ``k``, near ``tau_guess``.
 
-    The gap (MODEL.md section 2, ``Y(x, t)``) with every input the float64 value
+    The gap (docs/model.md §2, ``Y(x, t)``) with every input the float64 value
     given (parameters of ``kp`` included):
 
         G(tau) = (vyrel + u) tau - g tau^2/2 - [y_p(t + tau) - y_p(t)]
@@ -519,7 +519,7 @@ def draw(result: BilliardBenchResult):
     axes[1].set_xlabel("f (Hz)")
     axes[1].legend(fontsize=8)
     axes[1].set_title("exact kernel cost, continuous run, 1 thread", fontsize=9)
-    fig.suptitle(f"billiard work-precision (f = {result.meta['case']['f']} Hz, MODEL.md defaults)")
+    fig.suptitle(f"billiard work-precision (f = {result.meta['case']['f']} Hz, default parameters)")
     fig.tight_layout()
     return fig
 

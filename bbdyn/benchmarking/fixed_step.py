@@ -10,7 +10,7 @@ of that final bracket (the first sample found below the plate), so the impact
 time is late by less than ``dt_min`` (first order in ``dt_min``) and the
 velocity is the exact relative velocity at that late time.  The particle is
 then put back on the plate and the impact law ``vrel+ = -alpha vrel-``
-(MODEL.md section 1) applied.  This is the most favourable version of such a
+(docs/model.md §1) applied.  This is the most favourable version of such a
 method: no integration error, only the event location.
 
 What it cannot do:

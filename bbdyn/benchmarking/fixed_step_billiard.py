@@ -8,7 +8,7 @@ first sample with ``G <= 0`` the last step is halved (keeping the half whose
 right end has ``G <= 0``) until it is at most ``dt_min``, and the collision is
 put at the right end of the final bracket, late by less than ``dt_min``.  There
 the particle is put back on the floor (same ``x``) and the restitution law of
-MODEL.md section 2 is applied with the exact normal at that point and the wedge
+docs/model.md §2 is applied with the exact normal at that point and the wedge
 rule of the exact kernel (``snap_to_wedge``, ``wedge_reflect``).
 
 What it cannot do (as for the flat ball): it misses a contact whose dip below
@@ -131,7 +131,7 @@ def fixed_step_billiard_event(periods, phase, tile, xi, vx, vyrel, dt, dt_min, k
     """One fixed-step collision: flight, late contact, restitution and wedge rule.
 
     Returns ``(periods, phase, tile, xi, vx, vyrel, n_evals, status)`` just after
-    the collision (MODEL.md section 2 law; ``vx, vyrel`` relative to the floor).
+    the collision (docs/model.md §2 law; ``vx, vyrel`` relative to the floor).
     """
     tau, k, xi_c, vy_minus, n_evals, status = fixed_step_billiard_flight(
         phase, xi, vx, vyrel, dt, dt_min, kp
@@ -235,7 +235,7 @@ def fixed_step_ensemble(params, *, t, n, seed, dt, dt_min, transient=None, n_sam
     t : float
         Simulated time (s).
     n : int
-        Particles, drawn from the reference box (MODEL.md section 3) with ``seed``
+        Particles, drawn from the reference box (docs/model.md §3) with ``seed``
         exactly as ``bbdyn.ensemble.ensemble`` draws them.
     seed : int
     dt, dt_min : float

@@ -1,4 +1,4 @@
-"""Work-precision benchmark of the flat ball (SCENES.md B2, issue 2 item 8).
+"""Work-precision benchmark of the flat ball (scene B2, docs/model.md §6, issue 2 item 8).
 
 Three ways to find the next impact are compared against the mpmath reference
 ``bbdyn.flat_reference.reference_impacts``:
@@ -65,7 +65,7 @@ __all__ = [
 
 #: A chaotic case: at f = 82 Hz (Gamma = 2.71) and alpha = 0.8 the attractor is
 #: chaotic (nearby orbits separate by ~e^1.4 per impact) and sticks are rare
-#: (none in the 1e5 impacts of the long run).  At the MODEL.md default
+#: (none in the 1e5 impacts of the long run).  At the default
 #: alpha = 0.5 the attractors between 60 and 95 Hz are periodic stick-release
 #: cycles, not chaotic.  The start (phase0 rad, vrel0 mm/s, just after an impact)
 #: is on the attractor: the exact map's state 1e4 events after (0.3, 50), fixed
@@ -125,7 +125,7 @@ FULL: dict[str, Any] = {
 
 
 def case_params() -> Params:
-    """Parameters of the benchmark case (MODEL.md defaults but f and alpha)."""
+    """Parameters of the benchmark case (default parameters (docs/model.md) but f and alpha)."""
     return Params(f=CASE["f"], alpha=CASE["alpha"])
 
 
@@ -251,7 +251,7 @@ def ivp_flight(
 
 
 def _post_impact_v(kp, phases, tau, vrel_minus):
-    """Absolute post-impact velocity v+ = -alpha vrel- + u (mm/s), MODEL.md impact law."""
+    """Absolute post-impact velocity v+ = -alpha vrel- + u (mm/s), docs/model.md impact law."""
     return -kp.alpha * vrel_minus - kp.A * kp.w * np.cos(phases + kp.w * tau)
 
 

@@ -1,4 +1,4 @@
 """Numba kernels: plain functions on floats and arrays, no Python objects.
 
-Modules here import only numpy, math, numba and each other (STYLE.md).
+Modules here import only numpy, math, numba and each other (tests/test_architecture.py).
 """

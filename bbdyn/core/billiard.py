@@ -1,4 +1,4 @@
-"""Exact event-driven dynamics of the bouncing ball billiard (MODEL.md section 2).
+"""Exact event-driven dynamics of the bouncing ball billiard (docs/model.md §2).
 
 State after an event: time as ``(periods, phase)`` (``phase = w t mod 2 pi``);
 position as ``(tile, xi)`` (``tile`` an integer-valued float, ``xi = x - x_c`` in
@@ -406,7 +406,7 @@ def collide(periods, phase, tile, xi, vx, vyrel, kp):
 
 @njit(cache=True)
 def billiard_event(periods, phase, tile, xi, vx, vyrel, kind, kp):
-    """Advance the billiard from one event to the next (MODEL.md section 2).
+    """Advance the billiard from one event to the next (docs/model.md §2).
 
     Parameters
     ----------

@@ -14,7 +14,7 @@ ensemble (and to the number of sample times and buffer sizes), not to the run.
 arrays and nothing is reduced across particles here, so the numbers do not
 depend on the number of threads or on scheduling.
 
-Conventions (MODEL.md sections 3 and 4):
+Conventions (docs/model.md §3 and §4):
 
 * times are ``(periods, phase)``; the end of the run, the energy window
   ``[window_periods[0], window_periods[1]]`` (whole periods, phase 0) and the

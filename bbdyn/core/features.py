@@ -1,4 +1,4 @@
-"""Per-trajectory features for attractor and regime classification (MODEL.md section 5).
+"""Per-trajectory features for attractor and regime classification (docs/model.md §5).
 
 The particles are run by the one event loop of ``core/ensemble.py``
 (``particle_loop``, driven here through ``core.ensemble.run_features``); this

@@ -1,4 +1,4 @@
-"""Exact impact map of the flat bouncing ball (MODEL.md section 1).
+"""Exact impact map of the flat bouncing ball (docs/model.md §1).
 
 State between events: time as ``(periods, phase)`` with ``phase = w t mod 2 pi``,
 and the *relative* velocity ``vrel = v - u`` of the particle with respect to the

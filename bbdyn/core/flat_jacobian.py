@@ -1,4 +1,4 @@
-"""Jacobian of the exact flat-ball impact map (MODEL.md section 1), a numba kernel.
+"""Jacobian of the exact flat-ball impact map (docs/model.md §1), a numba kernel.
 
 Used by the periodic-orbit solver and the tongue edges in ``bbdyn.tongues``.
 """

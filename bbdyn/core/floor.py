@@ -1,11 +1,11 @@
-"""Geometry of the billiard floor: one circular arc per tile (MODEL.md section 2).
+"""Geometry of the billiard floor: one circular arc per tile (docs/model.md §2).
 
 Positions are kept as (tile l, local coordinate ``xi = x - x_c``) with
 ``x_c = (l + 1/2) d`` and ``-d/2 <= xi <= d/2``, so that far tiles lose no
 precision.  Relative to the moving floor level ``y_p(t)`` (the wedges) the
 arc's height is
 
-    b(xi) = sqrt(R^2 - xi^2) - c0,   c0 = sqrt(R^2 - d^2/4)        (MODEL.md, Y(x, t))
+    b(xi) = sqrt(R^2 - xi^2) - c0,   c0 = sqrt(R^2 - d^2/4)        (docs/model.md, Y(x, t))
 
 with ``b(+-d/2) = 0`` at the wedges and ``b(0) = h`` at the top.  Every
 difference of heights is written as a product (no cancellation of square
@@ -80,7 +80,7 @@ def from_normal_velocity(xi, S, vn, vt, R):
 
 @njit(cache=True, inline="always")
 def bounce(xi, vx, vyrel, kp):
-    """Restitution law at the arc point ``xi`` (MODEL.md section 2).
+    """Restitution law at the arc point ``xi`` (docs/model.md §2).
 
     Parameters
     ----------

@@ -1,4 +1,4 @@
-"""Exact observables along billiard trajectories (MODEL.md sections 3 and 4).
+"""Exact observables along billiard trajectories (docs/model.md §3 and §4).
 
 Between two events a particle either flies on a parabola or, after a STICK,
 rides the floor.  Both motions are known in closed form, so time integrals of
@@ -12,7 +12,7 @@ the energies over any sub-interval are computed exactly (no sampling):
   ``vx = 0``, with ``b(xi) = sqrt(R^2 - xi^2) - c0`` the height of the arc above
   the wedges.  Over a whole period ``<E_y> = A^2 w^2 / 4`` and ``<g y> = g b``.
 
-Traps (MODEL.md section 4): wedge ``l`` sits at ``x = l d`` between the tops of
+Traps (docs/model.md §4): wedge ``l`` sits at ``x = l d`` between the tops of
 the bumps of tiles ``l - 1`` and ``l``, so a contact in tile ``l`` at ``xi < 0``
 is in trap ``l`` and one at ``xi >= 0`` in trap ``l + 1`` (a contact exactly on a
 top is given to the right-hand trap).
@@ -57,7 +57,7 @@ def flight_integrals(vx, vy0, y0, g, ta, tb):
     -------
     (I_Ex, I_Ey, I_pot) : floats
         Integrals of ``vx^2/2``, ``vy^2/2`` and ``g y`` (kg mm^2 / s); their sum is
-        the integral of ``E`` (MODEL.md section 3), which is constant in flight.
+        the integral of ``E`` (docs/model.md §3), which is constant in flight.
     """
     dt = tb - ta
     tm = 0.5 * (ta + tb)

@@ -1,6 +1,6 @@
 """Motion of the vibrating floor, written for accuracy over short intervals.
 
-The floor height is ``y_p(t) = -A sin(w t)`` (MODEL.md section 1).  Every gap
+The floor height is ``y_p(t) = -A sin(w t)`` (docs/model.md §1).  Every gap
 function in bbdyn is measured relative to the floor's motion at the start of a
 flight, so that a flight of 1e-9 s is as accurate as one of 1 s: instead of
 differences of sines (which cancel) we use, with ``x = w tau`` and the phase

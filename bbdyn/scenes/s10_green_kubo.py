@@ -1,4 +1,4 @@
-"""Scene S10: truncated Green-Kubo D_n against the Einstein D on a fine grid (MODEL.md section 4).
+"""Scene S10: truncated Green-Kubo D_n against the Einstein D on a fine grid (docs/model.md §4).
 
 Per frequency in [84.6, 86.4] Hz (``bbdyn.gk_scan.gk_point``): the Einstein D of the
 reference ensemble and ``D_n = (1/tau)(<h_0^2>/2 + sum_{k=1..n} <h_0 h_k>)`` for

@@ -1,6 +1,6 @@
 """Scene S1: the k/1 Arnold tongues of the flat ball in the (Gamma, alpha) plane.
 
-Closed-form tongues (MODEL.md, derived in ``derivations/flat_tongues.py``) with,
+Closed-form tongues (docs/model.md, derived in ``derivations/flat_tongues.py``) with,
 on top, the edges found numerically from the multipliers of the exact map's
 k/1 orbits (``bbdyn.tongues.gamma_lo_numeric`` / ``gamma_hi_numeric``).  The
 dimensionless tongues do not depend on A or g.

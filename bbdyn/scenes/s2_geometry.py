@@ -1,4 +1,4 @@
-"""Scene S2: a sketch of the billiard (MODEL.md section 2), vertical scale exaggerated.
+"""Scene S2: a sketch of the billiard (docs/model.md §2), vertical scale exaggerated.
 
 Three tiles of the floor of circular arcs at its mean position and at its
 extreme positions y_p = +-A, from the geometry kernels of ``bbdyn.core.floor``;

@@ -1,6 +1,6 @@
 """Scene S3: the diffusion coefficient D(f) with error bars, k/1 tongues marked on top.
 
-D is the late-window Einstein slope of the reference ensemble (MODEL.md section 3,
+D is the late-window Einstein slope of the reference ensemble (docs/model.md §3,
 ``bbdyn.frequency_scan.diffusion_point``), error bars one standard error over
 particles.  S3, S4 and S5 read one shared scan (``bbdyn.frequency_scan.scene_scan``),
 computed once per setting and seed.  ``draw(result, regimes=b1)`` also shades the

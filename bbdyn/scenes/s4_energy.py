@@ -1,7 +1,7 @@
 """Scene S4: steady-state total energy E(f) with the reference line A^2 w^2 / 2.
 
 E = (vx^2 + vy^2)/2 + g y averaged over whole driving periods after the transient
-and over the reference ensemble (MODEL.md section 3), error bars one standard
+and over the reference ensemble (docs/model.md §3), error bars one standard
 error over particles.  Reads the scan shared with S3 and S5.
 """
 

@@ -1,7 +1,7 @@
 """Scene S5: steady-state horizontal kinetic energy E_x(f) = <vx^2/2>.
 
 Averaged over whole driving periods after the transient and over the reference
-ensemble (MODEL.md section 3), error bars one standard error over particles.
+ensemble (docs/model.md §3), error bars one standard error over particles.
 Reads the scan shared with S3 and S4.
 """
 

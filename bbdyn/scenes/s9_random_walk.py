@@ -1,4 +1,4 @@
-"""Scene S9: Einstein D against the random-walk approximations D_rw and D_a (MODEL.md section 4).
+"""Scene S9: Einstein D against the random-walk approximations D_rw and D_a (docs/model.md §4).
 
 For f above 65.6 Hz, per frequency (``bbdyn.gk_scan.gk_point``): the Einstein D of
 the reference ensemble, ``D_rw = d^2 / (2 tau)`` with the escape time tau from the
