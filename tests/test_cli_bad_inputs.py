@@ -111,6 +111,8 @@ CASES: list[tuple[str, list[str], str]] = [
     ("tongues-alpha-nan", ["tongues", "--alpha", "nan"], ERROR),
     ("tongues-alpha-0", ["tongues", "--alpha", "0", "--json"], RESULT),
     ("tongues-alpha-1", ["tongues", "--alpha", "1", "--kmax", "2", "--json"], RESULT),
+    ("tongues-alpha-tiny", ["tongues", "--alpha", "1e-9", "--kmax", "1"], ERROR),
+    ("tongues-alpha-tiny-closed-form", ["tongues", "--alpha", "1e-9", "--closed-form"], RESULT),
     ("tongues-A-0", ["tongues", "--A", "0"], ERROR),
     ("tongues-A-negative", ["tongues", "--A", "-1"], ERROR),
     ("tongues-A-1e300", ["tongues", "--A", "1e300"], ERROR),

@@ -30,15 +30,26 @@ def add_arguments(parser) -> None:
         "--g", type=finite, default=PARAM_DEFAULTS["g"], help=param_help("g", "gravity in mm/s^2")
     )
     parser.add_argument("--json", action="store_true", help="print a JSON list, one object per k")
+    parser.add_argument(
+        "--closed-form",
+        action="store_true",
+        help="closed-form edges only, no numeric check from the exact map (always at alpha = 0)",
+    )
 
 
 def run(args) -> int:
     import json
 
-    from bbdyn.tongues import tongue_table
+    from bbdyn.tongues import OrbitNotFound, tongue_table
 
-    numeric = args.alpha > 0  # at alpha = 0 the k/1 orbit sticks: closed form only
-    table = tongue_table(args.alpha, args.kmax, args.A, args.g, numeric=numeric)
+    numeric = args.alpha > 0 and not args.closed_form  # at alpha = 0 the k/1 orbit sticks
+    try:
+        table = tongue_table(args.alpha, args.kmax, args.A, args.g, numeric=numeric)
+    except OrbitNotFound as err:
+        raise ValueError(
+            f"the numeric tongue edges failed at alpha = {args.alpha:g}: {err}; "
+            "add --closed-form for the closed-form edges only"
+        ) from err
     rows = table.rows()
     if args.json:
         print(json.dumps(jsonable(rows), indent=2))
