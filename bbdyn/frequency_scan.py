@@ -67,8 +67,9 @@ MAX_POINTS = 100_000
 def point_bytes(n_samples: int = N_SAMPLES) -> float:
     """Disk taken by one stored point of ``diffusion_point`` (.npz and .json), bytes.
 
-    About 9.7 kB whatever the settings (some 45 outputs, each with its own zip entry and
-    .npy header, and the metadata) plus 16 bytes per MSD sample (``msd``, ``sample_times``).
+    A fixed part (each output has its own zip entry and .npy header; the metadata) plus
+    16 bytes per MSD sample (``msd`` and ``sample_times``); within 50 % of a stored point
+    (tests/test_frequency_scan.py).
     """
     return 9_700.0 + 16.0 * n_samples
 

@@ -269,6 +269,8 @@ def _read_manifest(out_dir: Path) -> dict[str, Any]:
         not isinstance(manifest, dict)
         or manifest.get("kind") != "scan_manifest"
         or any(k not in manifest for k in fields)
+        or not isinstance(manifest["values"], list)
+        or not all(isinstance(v, int | float) and v >= 0 for v in manifest["values"])
         or manifest["keys"] != [point_key(v) for v in manifest["values"]]
     ):
         raise DamagedResultError(

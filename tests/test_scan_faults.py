@@ -104,7 +104,14 @@ def test_damaged_point_is_recomputed_on_resume_with_a_warning(tmp_path, clean, h
     _same(load_scan(tmp_path), clean)
 
 
-@pytest.mark.parametrize("content", ["", "{garbage", "[1, 2]"], ids=["empty", "garbage", "list"])
+BAD_VALUES = (
+    '{"kind": "scan_manifest", "name": "f", "values": ["x"], "keys": [1], "seed": 3, "compute": {}}'
+)
+
+
+@pytest.mark.parametrize(
+    "content", ["", "{garbage", "[1, 2]", BAD_VALUES], ids=["empty", "garbage", "list", "values"]
+)
 def test_damaged_manifest_is_named_with_the_remedy(tmp_path, content):
     _scan(tmp_path)
     manifest = tmp_path / "manifest.json"
