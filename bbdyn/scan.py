@@ -453,16 +453,13 @@ class _LocalBackend:
         if self.pool is None:
             return
         # shutdown() cannot stop a running point; without terminating the workers
-        # the interpreter would wait at exit for every running point to finish.
-        procs = list((getattr(self.pool, "_processes", None) or {}).values())
-        self.pool.shutdown(wait=not interrupted, cancel_futures=True)
+        # the interpreter would wait at exit for every running point to finish.  They are
+        # terminated first, so that shutdown(wait=True) returns at once and the pool's
+        # manager thread has ended (and released its pipes and semaphores) before we go on.
         if interrupted:
-            for proc in procs:
+            for proc in list((getattr(self.pool, "_processes", None) or {}).values()):
                 proc.terminate()
-            for proc in procs:
-                proc.join()
-            # the pool's manager thread now ends, releasing the pool's semaphores
-            self.pool.shutdown(wait=True)
+        self.pool.shutdown(wait=True, cancel_futures=True)
         self.pool = None
 
 
