@@ -24,10 +24,6 @@ PARAM_DEFAULTS = {
     f.name: f.default for f in dataclasses.fields(Params) if f.default is not dataclasses.MISSING
 }
 
-#: Fewest particles of an ensemble: D, the energies and the stuck fraction are reported
-#: with standard errors over particles, which need two of them.
-MIN_PARTICLES = 2
-
 
 def integer(text: str) -> int:
     """An integer option (``"12"``; not ``"1.5"`` or ``"1e3"``)."""
@@ -65,10 +61,15 @@ def duration(seconds: float) -> str:
     return f"{seconds:.2g} s"
 
 
-#: ``--n``: the number of particles (one rule for every command).
-particles = integer_in(
-    "n", MIN_PARTICLES, None, "standard errors over particles need at least two particles"
-)
+def particles(text: str) -> int:
+    """``--n``, the number of particles: the ensemble API's rule (``bbdyn.ensemble.N_MIN``),
+    the same for every command."""
+    from bbdyn.ensemble import N_MIN
+
+    why = "D, the energies and the stuck fraction carry standard errors over particles"
+    return integer_in("n", N_MIN, None, why)(text)
+
+
 #: ``--seed``: the seed of ``np.random.SeedSequence``, which takes integers >= 0.
 seed = integer_in("seed", 0, None, "a seed of numpy's SeedSequence is a non-negative integer")
 #: ``--threads``: numba threads (the upper bound, the number of cores, is checked at the run).
