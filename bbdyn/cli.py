@@ -72,36 +72,42 @@ def _settings(args) -> str:
     return " ".join(f"{k}={v}" for k, v in vars(args).items() if k not in skip and v is not None)
 
 
+def _one_line(err: BaseException) -> str:
+    """The exception's message on one line (a multi-line message joined with "; ")."""
+    return "; ".join(line.strip() for line in str(err).splitlines() if line.strip())
+
+
 def explain(err: BaseException, args) -> tuple[int, str]:
     """Exit status and message (at most three lines, no traceback) for an exception of a run."""
     from bbdyn.core.status import SimulationError
 
     prog = "bbdyn" if args is None else f"bbdyn {args.command}"
+    text = _one_line(err)
     if isinstance(err, ValueError | TypeError):
-        return EXIT_USAGE, f"{prog}: error: {err}\n{_see_help(prog)}"
+        return EXIT_USAGE, f"{prog}: error: {text}\n{_see_help(prog)}"
     if isinstance(err, OSError):
         where = f"{err.filename}: " if err.filename else ""
         return EXIT_FAILED, (
-            f"{prog}: error: {where}{err.strerror or err}\n"
+            f"{prog}: error: {where}{err.strerror or text}\n"
             "check the path: its folder must exist and be writable, with free space on the disk"
         )
     if isinstance(err, MemoryError):
         return EXIT_FAILED, (
-            f"{prog}: error: out of memory: {err or 'the run asked for more than is free'}\n"
+            f"{prog}: error: out of memory: {text or 'the run asked for more than is free'}\n"
             "reduce the sizes asked for (particles --n, time --t, orders --nmax/--kmax)"
         )
     if isinstance(err, OverflowError):
         return EXIT_USAGE, (
-            f"{prog}: error: a number is too large ({err})\nuse smaller values; {_see_help(prog)}"
+            f"{prog}: error: a number is too large ({text})\nuse smaller values; {_see_help(prog)}"
         )
     if isinstance(err, SimulationError):
         return EXIT_FAILED, (
-            f"{prog}: error: the simulation failed: {err}\n"
+            f"{prog}: error: the simulation failed: {text}\n"
             f"with {_settings(args)}\n"
             "try other parameters or a shorter run, and please report it with the command line"
         )
     return EXIT_FAILED, (
-        f"{prog}: internal error: {type(err).__name__}: {err}\n"
+        f"{prog}: internal error: {type(err).__name__}: {text}\n"
         "this is a bug, please report it with the command line "
         f"(set {DEBUG_VARIABLE}=1 to see the traceback)"
     )

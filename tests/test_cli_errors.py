@@ -106,6 +106,7 @@ def test_classify_plot_into_a_missing_folder_is_refused_before_the_run(tmp_path,
     ("exc", "status", "words"),
     [
         (ValueError("kmax must be positive"), 2, ["kmax must be positive", "--help"]),
+        (ValueError("first line\n  second line\n"), 2, ["first line; second line"]),
         (TypeError("f must be a real number"), 2, ["f must be a real number"]),
         (MemoryError("Unable to allocate 7.5 TiB"), 1, ["out of memory", "7.5 TiB", "reduce"]),
         (OverflowError("(34, 'Numerical result out of range')"), 2, ["too large", "smaller"]),
@@ -114,7 +115,7 @@ def test_classify_plot_into_a_missing_folder_is_refused_before_the_run(tmp_path,
         (RuntimeError("unexpected"), 1,
          ["RuntimeError: unexpected", "this is a bug", "BBDYN_DEBUG"]),
     ],
-    ids=["value", "type", "memory", "overflow", "simulation", "bug"],
+    ids=["value", "multiline", "type", "memory", "overflow", "simulation", "bug"],
 )  # fmt: skip
 def test_each_failure_gets_its_status_and_a_message_saying_what_to_do(
     tongues_raises, capsys, exc, status, words
