@@ -1,0 +1,225 @@
+"""Scene B6: fine structure of D(f) on nested frequency grids (issue 14; docs/fine_structure.md).
+
+Around each centre frequency, D(f) (``bbdyn.frequency_scan.diffusion_point``, error
+bars one standard error over particles) on levels of decreasing step (a window of
+``points`` frequencies per level).  Per level, ``bbdyn.finestructure.level_test``
+asks whether neighbouring values differ more than their errors allow (beyond a
+linear trend across the window) and gives the noise-corrected mean squared
+increment S2; where S2 is resolved on two or more levels, its log-log slope against
+the step gives a Hoelder-type exponent H (S2 ~ step^(2 H)).
+
+All points of a setting form one resumable scan (``bbdyn.scan.run_scan``) kept under
+``out_dir`` (``scan_folder``); ``settings["scheduler"]`` (a dask scheduler address
+or client) runs it on a cluster, ``settings["workers"]`` sets the local processes.
+Neither enters the scan folder's name: a scan started locally can be finished on a
+cluster and gives the same numbers.
+"""
+
+from __future__ import annotations
+
+import functools
+import math
+import time
+
+import numpy as np
+
+from bbdyn import finestructure as fs
+from bbdyn.params import Params
+from bbdyn.results import Result, make_meta
+
+TITLE = "Fine structure of D(f): nested grids around chosen frequencies, scaling of increments"
+_STEPS = (0.2, 0.05, 0.01, 0.002)
+QUICK = {"centres": (85.2,), "steps": _STEPS, "points": 7, "n": 50, "t": 5.0}
+#: The setting measured for docs/fine_structure.md (about 15 min of 2 shared cores).
+MEDIUM = {"centres": (85.2,), "steps": _STEPS, "points": 11, "n": 10000, "t": 20.0}
+#: One point per regime band (docs/classification.md) and 85.2 Hz; see the budget in
+#: docs/fine_structure.md.
+FULL = {"centres": (58.0, 70.0, 85.2, 89.0), "steps": _STEPS, "points": 21, "n": 40000,
+        "t": 20.0}  # fmt: skip
+#: settings that define the scan (and its folder)
+SCAN_KEYS = ("centres", "steps", "points", "n", "t")
+#: bootstrap resamples per point (the bootstrap is only a cross-check of D_err)
+N_BOOT = 200
+
+
+class FineStructureResult(Result):
+    """Arrays: per frequency ``f`` (Hz), ``D``, ``D_err`` (mm^2/s), ``centre``, ``level``
+    (indices), ``cpu_s``; ``centres`` (c,) Hz, ``steps`` (L,) Hz; per centre and level
+    (c, L): ``chi2``, ``dof``, ``p``, ``S2``, ``S2_err``, ``S2_spread`` (mm^4/s^2),
+    ``level_cpu_s``; per centre (c,): ``H``, ``H_err``, ``H_levels``."""
+
+    kind = "scene_b6"
+
+    def plot(self, ax=None):
+        fig = draw(self, ax)
+        return ax if ax is not None else fig.axes[-1]
+
+
+def grid_points(settings: dict) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Every (frequency, centre index, level index) of ``settings``; a frequency shared by
+    two levels (the centre) appears once per level."""
+    rows = [
+        (f, c, lv)
+        for c, centre in enumerate(settings["centres"])
+        for lv, step in enumerate(settings["steps"])
+        for f in fs.nested_grid(centre, step, settings["points"])
+    ]
+    f, c, lv = (np.array(col) for col in zip(*rows, strict=True))
+    return f, c.astype(int), lv.astype(int)
+
+
+def scan_folder(settings: dict, seed: int, out_dir=None):
+    """Folder of the scan of ``settings``: ``<out_dir>/scans/finestructure_<digest>``."""
+    from bbdyn.scan import settings_folder
+
+    return settings_folder("finestructure", settings, SCAN_KEYS, seed, out_dir)
+
+
+def run_points(settings: dict, seed: int, out_dir=None):
+    """The scan of all grid points of ``settings`` (computed, resumed or loaded)."""
+    from bbdyn.frequency_scan import check_scan_size, diffusion_point
+    from bbdyn.scan import run_scan
+
+    f, _, _ = grid_points(settings)
+    values = np.unique(f)
+    n, t = int(settings["n"]), float(settings["t"])
+    check_scan_size(float(values.min()), float(values.max()), values.size, n=n, t=t)
+    compute = functools.partial(diffusion_point, n=n, t=t, check=0, n_boot=N_BOOT)
+    return run_scan(
+        values.tolist(),
+        compute,
+        out_dir=scan_folder(settings, seed, out_dir),
+        seed=seed,
+        workers=settings.get("workers"),
+        scheduler=settings.get("scheduler"),
+        progress=settings.get("progress", False),
+    )
+
+
+def compute(settings: dict, seed: int = 0, out_dir=None) -> FineStructureResult:
+    """Run (or resume) the scan of ``settings`` and test every level; see the module docstring."""
+    start = time.perf_counter()
+    scan = run_points(settings, seed, out_dir)
+    f, cidx, lidx = grid_points(settings)
+    pos = np.searchsorted(scan.values, f)
+    wall = np.array([p["wall_s"] for p in scan.meta["points"]])
+    arrays = {"f": f, "centre": cidx, "level": lidx, "D": scan["D"][pos],
+              "D_err": scan["D_err"][pos], "cpu_s": wall[pos]}  # fmt: skip
+    centres = np.asarray(settings["centres"], dtype=float)
+    steps = np.asarray(settings["steps"], dtype=float)
+    arrays.update(centres=centres, steps=steps)
+    arrays.update(_level_tables(arrays, centres.size, steps.size))
+    meta = make_meta(seed=seed, wall_s=time.perf_counter() - start,
+                     scan_compute=scan.meta["compute"], n=int(settings["n"]),
+                     t=float(settings["t"]), scan_cpu_s=float(wall.sum()))  # fmt: skip
+    meta["params"] = {k: v for k, v in Params(f=85.2).to_dict().items() if k != "f"}
+    result = FineStructureResult(arrays, meta)
+    result.meta["key_numbers"] = key_numbers(result)
+    return result
+
+
+def _level_tables(arrays: dict, n_centres: int, n_levels: int) -> dict[str, np.ndarray]:
+    """The structure test per (centre, level) and the scaling exponent per centre."""
+    names = ("chi2", "dof", "p", "S2", "S2_err", "S2_spread")
+    out = {k: np.full((n_centres, n_levels), math.nan) for k in (*names, "level_cpu_s")}
+    for c in range(n_centres):
+        for lv in range(n_levels):
+            sel = (arrays["centre"] == c) & (arrays["level"] == lv)
+            test = fs.level_test(arrays["D"][sel], arrays["D_err"][sel])
+            for k in names:
+                out[k][c, lv] = test[k]
+            out["level_cpu_s"][c, lv] = arrays["cpu_s"][sel].sum()
+    fits = [
+        fs.scaling_exponent(arrays["steps"], out["S2"][c], out["S2_err"][c], out["S2_spread"][c])
+        for c in range(n_centres)
+    ]
+    out.update({f"H{s}": np.array([fit[k] for fit in fits])
+                for s, k in (("", "H"), ("_err", "H_err"), ("_levels", "levels"))})  # fmt: skip
+    return out
+
+
+def level_rows(result: Result) -> list[dict]:
+    """One row per centre and level: the test, the size, the CPU time and the verdict."""
+    rows = []
+    for c, centre in enumerate(result["centres"]):
+        for lv, step in enumerate(result["steps"]):
+            test = {k: float(result[k][c, lv]) for k in ("chi2", "dof", "p", "S2", "S2_err")}
+            rows.append({"centre": float(centre), "step": float(step), **test,
+                         "cpu_s": float(result["level_cpu_s"][c, lv]),
+                         "verdict": fs.verdict(test, "mm^2/s")})  # fmt: skip
+    return rows
+
+
+def table(result: Result) -> str:
+    """The structure test per level as a Markdown table."""
+    lines = ["| centre (Hz) | step (Hz) | chi2 / dof | p | S2 (mm^4/s^2) | CPU (s) | conclusion |",
+             "|---:|---:|---:|---:|---:|---:|---|"]  # fmt: skip
+    for r in level_rows(result):
+        lines.append(f"| {r['centre']:g} | {r['step']:g} | {r['chi2']:.1f} / {r['dof']:g} | "
+                     f"{r['p']:.2g} | {r['S2']:.3g} +- {r['S2_err']:.2g} | {r['cpu_s']:.0f} | "
+                     f"{r['verdict']} |")  # fmt: skip
+    return "\n".join(lines)
+
+
+def key_numbers(result: Result) -> dict:
+    """Per centre and level the verdict, per centre the exponent, and the cost."""
+    key = {f"{r['centre']:g} Hz, step {r['step']:g} Hz": r["verdict"] for r in level_rows(result)}
+    for c, centre in enumerate(result["centres"]):
+        h, err, used = (float(result[k][c]) for k in ("H", "H_err", "H_levels"))
+        key[f"{centre:g} Hz exponent H (S2 ~ step^2H)"] = (
+            f"{h:.2f} +- {err:.2f} from {used:.0f} levels" if math.isfinite(h)
+            else f"not measurable ({used:.0f} resolved levels, need 2)"
+        )  # fmt: skip
+    key["median D_err (mm^2/s)"] = f"{float(np.median(result['D_err'])):.3g}"
+    key["scan CPU time (s)"] = round(result.meta["scan_cpu_s"], 1)
+    return key
+
+
+def draw(result: Result, ax=None):
+    """The nested grids (one row per centre, one panel per level) with error bars and the
+    scaling plot (S2 against step, log-log); with ``ax``, only the scaling plot there.
+    Returns the Figure."""
+    if ax is not None:
+        _draw_scaling(result, ax)
+        return ax.figure
+    import matplotlib.pyplot as plt
+
+    n_c, n_l = result["centres"].size, result["steps"].size
+    fig = plt.figure(figsize=(3.0 * n_l + 4.0, 2.6 * n_c + 0.6), layout="constrained")
+    grid = fig.add_gridspec(n_c, n_l + 1, width_ratios=[1] * n_l + [1.6])
+    for c in range(n_c):
+        for lv in range(n_l):
+            _draw_level(result, c, lv, fig.add_subplot(grid[c, lv]))
+    _draw_scaling(result, fig.add_subplot(grid[:, n_l]))
+    fig.suptitle(f"B6: D(f) on nested grids, n = {result.meta['n']}, t = {result.meta['t']:g} s, "
+                 "bars: 1 standard error")  # fmt: skip
+    return fig
+
+
+def _draw_level(result: Result, c: int, lv: int, ax) -> None:
+    sel = (result["centre"] == c) & (result["level"] == lv)
+    centre, step = result["centres"][c], result["steps"][lv]
+    ax.errorbar(result["f"][sel] - centre, result["D"][sel], result["D_err"][sel], fmt="o-",
+                ms=2.5, lw=0.8, capsize=1.5, color=f"C{lv}")  # fmt: skip
+    ax.set_title(f"{centre:g} Hz, step {step:g} Hz: p = {result['p'][c, lv]:.2g}", fontsize=8)
+    ax.set_xlabel(f"f - {centre:g} (Hz)", fontsize=8)
+    ax.tick_params(labelsize=7)
+    if lv == 0:
+        ax.set_ylabel(r"$D$ (mm$^2$/s)", fontsize=8)
+
+
+def _draw_scaling(result: Result, ax) -> None:
+    steps = result["steps"]
+    for c, centre in enumerate(result["centres"]):
+        s2, err = result["S2"][c], result["S2_err"][c]
+        ok = s2 > fs.Z_RESOLVED * err
+        label = f"{centre:g} Hz"
+        if math.isfinite(result["H"][c]):
+            label += f": H = {result['H'][c]:.2f} +- {result['H_err'][c]:.2f}"
+        (line,) = ax.loglog(steps[ok], s2[ok], "o", label=label)
+        bound = np.maximum(s2 + fs.Z_RESOLVED * err, 0)[~ok]
+        ax.loglog(steps[~ok], bound, "v", color=line.get_color(), mfc="none")
+    ax.set(xlabel="grid step (Hz)", ylabel=r"$S_2$ (mm$^4$/s$^2$)")
+    ax.set_title(f"noise-corrected mean squared increment\n(open: {fs.Z_RESOLVED:g} sigma upper "
+                 "bound, not resolved)", fontsize=8)  # fmt: skip
+    ax.legend(fontsize=7)
