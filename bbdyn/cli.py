@@ -30,6 +30,7 @@ COMMANDS = {
     "gk": "gk",
     "scan": "scan",
     "classify": "classify",
+    "doublings": "doublings",
 }
 
 EXIT_FAILED, EXIT_USAGE = 1, 2
