@@ -133,6 +133,7 @@ def simulate(
     s0: float | None = None,
     vx0: float | None = None,
     vy0: float | None = None,
+    max_bytes: float | None = None,
 ) -> BilliardTrajectory:
     """Run one trajectory for ``n_events`` events (impacts, sticks, releases).
 
@@ -147,6 +148,9 @@ def simulate(
     s0, vx0, vy0 : float, optional
         Alternatively, a post-collision state at t = 0 on tile 0 (docs/model.md §3),
         converted by ``state_from_section``.
+    max_bytes : float, optional
+        Refuse (ValueError, before allocating) runs whose arrays would take more bytes;
+        default ``bbdyn.ensemble.MAX_BYTES``.  Raise it if you mean it.
 
     Returns
     -------
@@ -171,6 +175,7 @@ def simulate(
     state0 = _check_state(params, state0)
     kp = params.kernel()
     n = int(n_events) + 1
+    _check_bytes(n, max_bytes)
     arrays = {
         "periods": np.empty(n),
         "phase": np.empty(n),
@@ -192,6 +197,25 @@ def simulate(
         params, wall_s=wall, status=STATUS_MESSAGES[status], n_events=int(n_done), state0=state0
     )
     return BilliardTrajectory(arrays, meta)
+
+
+#: Float64 columns of a trajectory per recorded state: the kernel's 7 and ``_derived``'s 5,
+#: plus the 2 temporaries of ``arc_coordinates``.
+BYTES_PER_STATE = 8 * (7 + 5 + 2)
+
+
+def _check_bytes(n_states: int, max_bytes: float | None) -> None:
+    """Refuse a trajectory of ``n_states`` states above ``max_bytes`` (default ``MAX_BYTES``)."""
+    from bbdyn.ensemble import MAX_BYTES
+
+    max_bytes = MAX_BYTES if max_bytes is None else float(max_bytes)
+    nbytes = n_states * BYTES_PER_STATE
+    if nbytes > max_bytes:
+        raise ValueError(
+            f"n_events = {n_states - 1} would take {nbytes / 2**30:.3g} GiB of arrays (limit "
+            f"max_bytes = {max_bytes / 2**30:.3g} GiB); use fewer events (an ensemble computes "
+            "observables on the fly) or pass a larger max_bytes if you mean it"
+        )
 
 
 def _check_state(params: Params, state0) -> tuple:

@@ -98,3 +98,15 @@ def test_one_validation_of_t_and_transient(kwargs, message):
 def test_two_particles_make_an_ensemble():
     s = ensemble(Params(f=85.2), n=2, t=1.0, seed=0).summary()
     assert np.isfinite(s["D_se"]) and np.isfinite(s["E_se"])
+
+
+def test_a_single_trajectory_refuses_absurd_event_counts():
+    from bbdyn.billiard import BYTES_PER_STATE, simulate
+
+    p, ic = Params(f=58.0), {"s0": 1.0, "vx0": 1.0, "vy0": 10.0}
+    with pytest.raises(ValueError, match="n_events = 100000000000 would take .* GiB"):
+        simulate(p, n_events=100_000_000_000, **ic)
+    traj = simulate(p, n_events=50, **ic)
+    assert sum(a.nbytes for a in traj.arrays.values()) <= 51 * BYTES_PER_STATE
+    with pytest.raises(ValueError, match="max_bytes"):
+        simulate(p, n_events=50, max_bytes=50 * BYTES_PER_STATE, **ic)
