@@ -17,6 +17,20 @@ from bbdyn.core.status import NON_FINITE, OK
 def flat_map_jacobian(phase, vrel, kp):
     """One impact of the exact map and its Jacobian in ``(theta, vrel)``.
 
+    Returns ``(dphase, vrel_new, jac, status)``: ``flat_map_jacobian_entries`` with
+    the four entries in a new (2, 2) array (NaN unless ``status`` is ``OK``).
+    """
+    jac = np.full((2, 2), np.nan)
+    x, vrel_new, j00, j01, j10, j11, status = flat_map_jacobian_entries(phase, vrel, kp)
+    if status == OK:
+        jac[0, 0], jac[0, 1], jac[1, 0], jac[1, 1] = j00, j01, j10, j11
+    return x, vrel_new, jac, status
+
+
+@njit(cache=True)
+def flat_map_jacobian_entries(phase, vrel, kp):
+    """One impact of the exact map and its Jacobian in ``(theta, vrel)``.
+
     Implicit function theorem on the gap ``G(tau; theta, vrel) = vrel tau - g tau^2/2
     - rise(tau; theta) = 0`` (``core/flat.py``): ``dG/dtau = vrel-``,
     ``dG/dvrel = tau``, ``dG/dtheta = -(u(t+tau) - u(t) - a(t) tau) / w`` with the
@@ -30,18 +44,19 @@ def flat_map_jacobian(phase, vrel, kp):
         Phase advance ``w tau`` (rad, not reduced mod 2 pi: the "lifted" map).
     vrel_new : float
         ``-alpha vrel-`` (mm/s).
-    jac : ndarray (2, 2)
-        ``d(theta + dphase, vrel_new) / d(theta, vrel)``.
+    j00, j01, j10, j11 : float
+        ``d(theta + dphase, vrel_new) / d(theta, vrel)`` by rows (no allocation:
+        the tangent kernels call this once per impact).
     status : int
         ``OK``, a status of ``flat_flight``, or ``NON_FINITE`` for a grazing landing
         (``vrel- = 0``, where the map is not differentiable).
     """
-    jac = np.full((2, 2), np.nan)
+    nan = math.nan
     tau, vrel_minus, status = flat_flight(phase, vrel, kp)
     if status != OK:
-        return math.nan, math.nan, jac, status
+        return nan, nan, nan, nan, nan, nan, status
     if vrel_minus == 0.0:
-        return math.nan, math.nan, jac, NON_FINITE
+        return nan, nan, nan, nan, nan, nan, NON_FINITE
     A, w, g = kp.A, kp.w, kp.g
     x = w * tau
     s0 = math.sin(phase)
@@ -54,9 +69,9 @@ def flat_map_jacobian(phase, vrel, kp):
     da = A * w * w * (c0 * sin_x - 2.0 * s0 * sin_half * sin_half)
     dtau_dtheta = du_lin / (w * vrel_minus)
     dtau_dvrel = -tau / vrel_minus
-    jac[0, 0] = 1.0 + w * dtau_dtheta
-    jac[0, 1] = w * dtau_dvrel
+    j00 = 1.0 + w * dtau_dtheta
+    j01 = w * dtau_dvrel
     # vrel- = vrel - g tau - (u(t+tau) - u(t))
-    jac[1, 0] = kp.alpha * ((g + a1) * dtau_dtheta + da / w)
-    jac[1, 1] = -kp.alpha * (1.0 - (g + a1) * dtau_dvrel)
-    return x, -kp.alpha * vrel_minus, jac, OK
+    j10 = kp.alpha * ((g + a1) * dtau_dtheta + da / w)
+    j11 = -kp.alpha * (1.0 - (g + a1) * dtau_dvrel)
+    return x, -kp.alpha * vrel_minus, j00, j01, j10, j11, OK

@@ -1,0 +1,190 @@
+"""Lyapunov exponents of the flat ball through impacts and sticks (bbdyn.lyapunov, core.tangent).
+
+Independent facts: the multipliers of periodic orbits from the Newton solver,
+the closed-form determinant ``alpha vrel+ / (-vrel-)`` of the impact map (which
+telescopes along a trajectory), finite differences of whole trajectories of the
+event kernel, and the stick that forgets the state.
+"""
+
+import math
+
+import numpy as np
+import pytest
+
+from bbdyn.core.flat import flat_run
+from bbdyn.core.plate import TWO_PI
+from bbdyn.core.status import IMPACT, OK, STICK, STUCK_FOREVER
+from bbdyn.core.tangent import flat_tangent_run
+from bbdyn.lyapunov import flat_lyapunov, flat_lyapunov_from
+from bbdyn.params import Params
+from bbdyn.tongues import find_periodic_orbit, k1_orbit_numeric, params_at_gamma, tongue_gamma_hi
+
+ALPHA = 0.5
+#: a chaotic flat ball (positive exponent, rare sticks) for the trajectory checks
+CHAOTIC = Params(f=120.0, alpha=0.8)
+
+
+def _run_kernel(p, phase, vrel, t_end_periods):
+    """One particle from an impact with the identity frame, one window; returns the outputs."""
+    frame = np.array([1.0, 0.0, 0.0, 1.0])
+    log, imp, col, end = (
+        np.zeros((1, 2)),
+        np.zeros(1, np.int64),
+        np.zeros(1, np.int64),
+        np.full(1, np.nan),
+    )
+    state = flat_tangent_run(
+        0.0, phase, vrel, IMPACT, p.kernel(), np.array([t_end_periods]), frame, log, imp, col, end
+    )
+    return state, frame, log[0], int(imp[0]), int(col[0])
+
+
+def _orbit_bound(orbit, n_impacts):
+    """Bound on the QR error of the exponents per impact after ``n_impacts``: the
+    frame's start and end contribute at most log cond(V) each (V: eigenvectors)."""
+    _, vecs = np.linalg.eig(orbit["jacobian"])
+    return 2.0 * math.log(np.linalg.cond(vecs)) / n_impacts + 1e-9
+
+
+def _check_orbit_exponents(p, orbit, k, m):
+    res = flat_lyapunov_from(p, [orbit["phase"][0]], [orbit["vrel"][0]], t=30.0, transient=0.0)
+    assert res["collapses"].sum() == 0
+    n_imp = int(res["impacts"].sum())
+    mu = np.sort(np.log(np.abs(orbit.eigenvalues)))[::-1] / m
+    lam_imp = res.exponents("impact")[0]
+    assert lam_imp == pytest.approx(mu, abs=_orbit_bound(orbit, n_imp // m))
+    # per second: the orbit takes k periods for m impacts
+    lam_s = res.exponents("second")[0]
+    assert lam_s == pytest.approx(
+        mu * m / (k / p.f),
+        abs=_orbit_bound(orbit, n_imp // m) * m * p.f / k + 1e-6 * abs(mu[0]) * p.f,
+    )
+
+
+def test_exponents_of_a_1_1_orbit_with_real_multipliers_are_their_logs():
+    gamma = tongue_gamma_hi(1, ALPHA) * 0.98  # below the flip: stable, real multipliers
+    p = params_at_gamma(gamma, alpha=ALPHA)
+    orbit = k1_orbit_numeric(1, gamma, ALPHA)
+    assert np.all(orbit.eigenvalues.imag == 0) and orbit.is_stable
+    mu = np.log(np.abs(orbit.eigenvalues))
+    assert abs(mu[0] - mu[1]) > 0.5  # distinct: the test separates the two exponents
+    _check_orbit_exponents(p, orbit, 1, 1)
+
+
+def test_exponents_of_a_period_2_orbit_are_the_logs_of_its_multipliers_over_two():
+    gamma = tongue_gamma_hi(1, ALPHA) * 1.004
+    p = params_at_gamma(gamma, alpha=ALPHA)
+    one = k1_orbit_numeric(1, gamma, ALPHA)
+    out = (np.empty(3000), np.empty(3000), np.empty(3000), np.empty(3000, np.int64))
+    n_done, status = flat_run(0.0, one["phase"][0] + 1e-4, one["vrel"][0], IMPACT, p.kernel(), *out)
+    assert status == OK and n_done == 3000
+    two = find_periodic_orbit(p, 2, 2, out[1][-1], out[2][-1])
+    assert two.is_stable and np.all(two.eigenvalues.imag == 0)
+    _check_orbit_exponents(p, two, 2, 2)
+
+
+def test_sum_of_the_spectrum_is_the_closed_form_determinant_which_telescopes():
+    """log|det J| = log(alpha vrel_i / (-vrel-)) = 2 log alpha + log vrel_i - log vrel_{i+1}."""
+    rng = np.random.default_rng(3)
+    checked = 0
+    for phase, vrel in zip(TWO_PI * rng.random(6), 1.0 + 30.0 * rng.random(6), strict=True):
+        (periods, phase_end, vrel_end, kind, status), _, log, n_imp, n_col = _run_kernel(
+            CHAOTIC, phase, vrel, 200.0
+        )
+        assert status == OK
+        if n_col:
+            continue
+        assert kind == IMPACT
+        expected = 2 * n_imp * math.log(CHAOTIC.alpha) + math.log(vrel / vrel_end)
+        assert log.sum() == pytest.approx(expected, rel=1e-9, abs=1e-8)
+        assert log[0] > 0 > log[1]  # chaotic: one growing, one shrinking direction
+        checked += 1
+    assert checked >= 3
+
+
+def _lifted_after(p, phase, vrel, n):
+    out = (np.empty(n), np.empty(n), np.empty(n), np.empty(n, np.int64))
+    n_done, status = flat_run(0.0, phase, vrel, IMPACT, p.kernel(), *out)
+    assert status == OK and n_done == n and np.all(out[3] == IMPACT)
+    return np.array([out[0][-1] * TWO_PI + out[1][-1], out[2][-1]])
+
+
+def _fd_product(p, phase, vrel, n):
+    """Central differences of the lifted phase and vrel after ``n`` events (2, 2)."""
+    steps = np.array([1e-7, 1e-7 * vrel])
+    fd = np.empty((2, 2))
+    for c in range(2):
+        dz = np.zeros(2)
+        dz[c] = steps[c]
+        plus = _lifted_after(p, phase + dz[0], vrel + dz[1], n)
+        minus = _lifted_after(p, phase - dz[0], vrel - dz[1], n)
+        fd[:, c] = (plus - minus) / (2 * steps[c])
+    return fd
+
+
+@pytest.mark.parametrize("phase, vrel", [(1.0, 20.0), (4.0, 7.0), (5.5, 33.0)])
+@pytest.mark.parametrize("periods", [1.0, 4.0])
+def test_tangent_frame_agrees_with_finite_differences_of_whole_trajectories(phase, vrel, periods):
+    p = CHAOTIC
+    (_, _, _, kind, status), frame, log, n_imp, n_col = _run_kernel(p, phase, vrel, periods)
+    assert status == OK and n_col == 0 and kind == IMPACT and n_imp >= 1
+    fd = _fd_product(p, phase, vrel, n_imp)
+    # QR of the product: |first column| = R00, first frame vector = its direction, det = R00 R11
+    assert log[0] == pytest.approx(math.log(np.linalg.norm(fd[:, 0])), abs=1e-6)
+    direction = fd[:, 0] / np.linalg.norm(fd[:, 0])
+    assert frame[:2] == pytest.approx(direction, abs=1e-6)
+    # det from nearly parallel columns: the differences' relative error (~ eps / step,
+    # 1e-9) is multiplied by |c1| |c2| / |det|; a wrong Jacobian is off by O(1)
+    cancel = np.prod(np.linalg.norm(fd, axis=0)) / abs(np.linalg.det(fd))
+    assert log.sum() == pytest.approx(math.log(abs(np.linalg.det(fd))), abs=1e-9 * cancel + 1e-7)
+
+
+def test_a_stick_forgets_the_state_and_collapses_the_frame():
+    """Perturbed starts that stick are released at the same event: the tangent map is zero."""
+    p = Params(f=58.0)  # Gamma = 1.35, alpha = 0.5: complete chattering
+    n = 400
+    finals = []
+    for dphase in (0.0, 1e-6):
+        out = (np.empty(n), np.empty(n), np.empty(n), np.empty(n, np.int64))
+        flat_run(0.0, 2.0 + dphase, 10.0, IMPACT, p.kernel(), *out)
+        first_release = int(np.argmax(out[3] == STICK)) + 1
+        finals.append((out[0][first_release], out[1][first_release], out[2][first_release]))
+    assert finals[0] == finals[1]
+    _, _, _, _, n_col = _run_kernel(p, 2.0, 10.0, 20.0)
+    assert n_col >= 1
+    res = flat_lyapunov_from(p, [2.0], [10.0], t=1.0)
+    assert np.all(res.exponents() == -math.inf)
+    assert np.all(np.isfinite(res.conditional_exponents()))
+
+
+def test_gamma_below_one_gives_no_positive_exponent():
+    p = params_at_gamma(0.8, alpha=ALPHA)
+    res = flat_lyapunov(p, 6, t=2.0, transient=0.0, seed=2)
+    assert set(res["status"]) == {STUCK_FOREVER}
+    assert np.all(res.exponents() == -math.inf)
+    # every particle ends stuck for good, having collapsed its frame
+    assert np.all(res["collapses"].sum(axis=1) >= 1)
+
+
+def test_windows_converge_and_summary_has_errors_over_particles():
+    res = flat_lyapunov(CHAOTIC, 6, t=4.0, transient=0.5, windows=4, seed=5)
+    lam_w = res.window_exponents()
+    s = res.summary()
+    assert np.all(lam_w > 0) and s["cond_lam1_per_s"] > 0 > s["cond_lam2_per_s"]
+    # each window agrees with the pooled value within a few particle standard errors x sqrt(windows)
+    assert np.all(np.abs(lam_w - s["cond_lam1_per_s"]) < 5 * s["cond_lam1_per_s_se"] * 2)
+    # same seed, same numbers
+    again = flat_lyapunov(CHAOTIC, 6, t=4.0, transient=0.5, windows=4, seed=5)
+    assert np.array_equal(again["log_growth"], res["log_growth"])
+
+
+def test_bad_input_is_refused_with_the_parameter_named():
+    p = Params(f=58.0)
+    with pytest.raises(ValueError, match="t must be"):
+        flat_lyapunov(p, 2, t=0.0)
+    with pytest.raises(ValueError, match="n must be"):
+        flat_lyapunov(p, 0, t=1.0)
+    with pytest.raises(ValueError, match="windows must be"):
+        flat_lyapunov(p, 2, t=1.0, windows=0)
+    with pytest.raises(ValueError, match="per must be"):
+        flat_lyapunov(p, 1, t=0.1).exponents("year")
