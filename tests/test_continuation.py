@@ -1,0 +1,144 @@
+"""Continuation of periodic orbits of the exact flat map (bbdyn.continuation)."""
+
+import math
+
+import numpy as np
+import pytest
+
+from bbdyn.continuation import (
+    FEIGENBAUM_DELTA,
+    cascade,
+    continue_branch,
+    km_orbit_guesses,
+    orbit_chain,
+    unit_kernel,
+)
+from bbdyn.core.flat import flat_run
+from bbdyn.core.plate import TWO_PI
+from bbdyn.core.status import IMPACT, OK
+from bbdyn.tongues import (
+    k1_cos_phase,
+    map_jacobian,
+    params_at_gamma,
+    tongue_gamma_hi,
+    tongue_gamma_lo,
+)
+
+#: Accuracy the brief asks of a located bifurcation, in Gamma.
+EDGE_TOL = 1e-10
+
+
+@pytest.mark.parametrize("alpha", [0.3, 0.5, 0.8])
+@pytest.mark.parametrize("k", [1, 2, 3])
+def test_k1_branch_folds_and_flips_at_the_closed_form_edges(k, alpha):
+    """From the saddle branch (sin theta > 0) down through the fold and up to the flip."""
+    gamma = 1.2 * tongue_gamma_lo(k, alpha)
+    theta = math.acos(k1_cos_phase(k, gamma, alpha))
+    V = 2 * alpha * math.pi * k / (1 + alpha)
+    branch, _ = continue_branch((theta, V, gamma), k, 1, alpha, direction=-1, stop_at_flip=True)
+    assert branch.meta["status"] == "flip"
+    (kind_lo, lo), (kind_hi, hi) = branch.bifurcations
+    assert (kind_lo, kind_hi) == ("fold", "flip")
+    assert abs(lo - tongue_gamma_lo(k, alpha)) < EDGE_TOL
+    assert abs(hi - tongue_gamma_hi(k, alpha)) < EDGE_TOL
+
+
+def test_gamma_column_is_the_derivative_of_the_residual():
+    """The implicit-function Gamma column against central differences of the residual."""
+    theta, V, gamma, alpha = 4.0, 1.7, 2.3, 0.5
+    ch = orbit_chain(theta, V, gamma, 2, 3, alpha)
+    h = 1e-6
+    plus = orbit_chain(theta, V, gamma + h, 2, 3, alpha).residual
+    minus = orbit_chain(theta, V, gamma - h, 2, 3, alpha).residual
+    np.testing.assert_allclose(ch.d_gamma, (plus - minus) / (2 * h), rtol=1e-7, atol=1e-8)
+
+
+def _iterate(theta, V, gamma, alpha, n):
+    """The last impacts (phase, V) of n iterates of the simulator's exact map."""
+    kp = unit_kernel(gamma, alpha)
+    out = [np.zeros(n) for _ in range(3)] + [np.zeros(n, dtype=np.int64)]
+    n_done, status = flat_run(0.0, theta, V, IMPACT, kp, *out)
+    assert status == OK and n_done == n and np.all(out[3] == IMPACT)
+    return out[1], out[2]
+
+
+def _period(theta, V, tol=1e-8):
+    """Least p such that the last 64 impacts repeat after p (0 if none up to 32)."""
+    for p in (1, 2, 4, 8, 16, 32):
+        d = np.abs(np.angle(np.exp(1j * (theta[-64:] - theta[-64 - p : -p]))))
+        if np.max(d) < tol and np.max(np.abs(V[-64:] - V[-64 - p : -p])) < tol:
+            return p
+    return 0
+
+
+@pytest.mark.parametrize("k", [1, 2])
+def test_doubled_orbits_are_what_direct_iteration_converges_to(k):
+    """Just past the n-th doubling the exact map settles on the 2^n orbit found by
+    continuation, just before it on the 2^(n-1) orbit (n = 1, 2: periods 2 and 4)."""
+    alpha = 0.5
+    gammas, status, _, branches = cascade(k, alpha, 3)
+    assert status == "done"
+    edges = [tongue_gamma_lo(k, alpha), *gammas]  # the k/1 orbit is born at Gamma_lo
+    for n in (1, 2):
+        past = edges[n] + 0.05 * (edges[n + 1] - edges[n])
+        before = edges[n] - 0.05 * (edges[n] - edges[n - 1])
+        br = branches[n]  # the branch of 2^n impacts
+        i = int(np.argmin(np.abs(br["gamma"] - past)))
+        # start next to the continued orbit, at the test's Gamma
+        theta, V = _iterate(br["theta"][i][0] + 1e-3, br["V"][i][0], past, alpha, 40000)
+        assert _period(theta, V) == 2**n
+        theta_b, V_b = _iterate(br["theta"][i][0] + 1e-3, br["V"][i][0], before, alpha, 40000)
+        assert _period(theta_b, V_b) == 2 ** (n - 1)
+
+
+def test_doubled_orbit_matches_iteration_pointwise():
+    """The 2-impact orbit continued to a Gamma past the first doubling is the attractor."""
+    from bbdyn.continuation import _correct_at_gamma
+
+    alpha, k = 0.5, 1
+    gammas, _, _, branches = cascade(k, alpha, 2)
+    past = gammas[0] + 0.3 * (gammas[1] - gammas[0])
+    br = branches[1]
+    i = int(np.argmin(np.abs(br["gamma"] - past)))
+    p = _correct_at_gamma(br["theta"][i][0], br["V"][i][0], past, 2 * k, 2, alpha)
+    theta, V = _iterate(p.chain.theta[0] + 1e-3, p.chain.V[0], past, alpha, 20000)
+    last = np.sort(theta[-2:])
+    np.testing.assert_allclose(last, np.sort(p.chain.theta), atol=1e-9)
+    assert abs(p.chain.theta[1] - p.chain.theta[0]) > 1e-3  # a true period-2 orbit
+
+
+def test_feigenbaum_ratios_converge():
+    """Ratio estimates of the k = 1 cascade approach 4.6692.
+
+    The estimates' error falls geometrically, by about 1/delta per level (next-order
+    scaling): from 6e-2 at the first ratio, 1/delta^5 gives ~1e-4 at the seventh, so
+    the deepest (seventh) estimate must be within 1e-3 and the errors of the last
+    four must decrease.
+    """
+    gammas, status, _, _ = cascade(1, 0.5, 9)
+    assert status == "done"
+    d = np.diff(gammas)
+    ratios = d[:-1] / d[1:]
+    err = np.abs(ratios - FEIGENBAUM_DELTA)
+    assert err[-1] < 1e-3 * FEIGENBAUM_DELTA
+    assert np.all(np.diff(err[-4:]) < 0)
+
+
+@pytest.mark.parametrize(("k", "m", "gamma"), [(1, 2, 1.5), (3, 2, 3.0), (5, 3, 4.5), (2, 3, 4.0)])
+def test_km_multipliers_are_the_eigenvalues_of_the_jacobian_product(k, m, gamma):
+    """Multipliers of a k/m orbit (dimensionless chain) against the product of
+    ``bbdyn.tongues.map_jacobian`` in mm and s along it, and det = alpha^(2m)."""
+    alpha = 0.5
+    orbits = km_orbit_guesses(k, m, alpha, [gamma], n_phase=12)
+    assert orbits, f"no {k}/{m} orbit found at Gamma = {gamma}"
+    params = params_at_gamma(gamma, alpha=alpha)
+    for p in orbits:
+        jac = np.eye(2)
+        for theta, V in zip(p.chain.theta, p.chain.V, strict=True):
+            jac = map_jacobian(params, theta, V * params.g / params.w) @ jac
+        mine = np.sort_complex(np.linalg.eigvals(p.chain.monodromy).astype(complex))
+        theirs = np.sort_complex(np.linalg.eigvals(jac).astype(complex))
+        np.testing.assert_allclose(mine, theirs, rtol=1e-7, atol=1e-9)
+        assert np.linalg.det(jac) == pytest.approx(alpha ** (2 * m), rel=1e-9)
+        assert np.linalg.det(p.chain.monodromy) == pytest.approx(alpha ** (2 * m), rel=1e-9)
+        assert sum(p.chain.flight) == pytest.approx(TWO_PI * k, rel=1e-12)
