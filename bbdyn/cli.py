@@ -31,6 +31,7 @@ COMMANDS = {
     "scan": "scan",
     "classify": "classify",
     "doublings": "doublings",
+    "lyapunov": "lyapunov",
 }
 
 EXIT_FAILED, EXIT_USAGE = 1, 2
