@@ -255,7 +255,8 @@ def trajectory_features(
         )
     ics, states, box_index, boxes = _states_from(params, boxes, n, seed, initial, start_phase)
     # ---- the features run: chunked (Ctrl-C stops it between chunks), size checked
-    from bbdyn.core.ensemble import CARRY_WIDTH, CNT_WIDTH, new_carry
+    from bbdyn.core.ensemble import CARRY_WIDTH, CNT_WIDTH
+    from bbdyn.ensemble import new_carry
 
     m = ics.shape[0]
     nbins = int(round(10.0 / th.hist_width)) + 1

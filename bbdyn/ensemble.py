@@ -20,6 +20,7 @@ import math
 import time
 import warnings
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import numba
 import numpy as np
@@ -248,6 +249,46 @@ def allocate(shapes: dict[str, tuple], *, extra: float, limits: dict) -> tuple[d
 
 
 # ---- chunked runs and failed particles -----------------------------------------------------
+class Carry(NamedTuple):
+    """Per-particle loop state carried from one chunk of events to the next (kernel argument).
+
+    Taken by ``core.ensemble.run_ensemble`` and ``run_features``.
+
+    ``state`` (n, CARRY_WIDTH), columns ``C_*``; the fast-forward rings ``rel``
+    (n, FF_LAGS or 0, 6), ``rel_acc`` (n, ., 4), ``rel_cnt`` (int64, n, ., CNT_WIDTH)
+    (see ``core.ensemble.fast_forward``); the features' ring of the last collisions ``ring``
+    (n, pmax or 0, 3) (see ``features.feature_collision``).  Everything a particle's
+    loop needs to go on lives here, so a run cut into chunks makes the same
+    operations in the same order as one uncut run: the numbers are bitwise equal.
+    """
+
+    state: np.ndarray
+    rel: np.ndarray
+    rel_acc: np.ndarray
+    rel_cnt: np.ndarray
+    ring: np.ndarray
+
+
+def new_carry(states, ff_lags, pmax):
+    """A ``Carry`` for particles starting at ``states`` (n, 7); rings of ``ff_lags``, ``pmax``.
+
+    ``ff_lags`` is ``FF_LAGS`` with fast-forward, else 0 (no ring is kept); ``pmax`` the
+    features' longest period, else 0.  Plain Python: it only allocates and starts.
+    """
+    from bbdyn.core.ensemble import CARRY_WIDTH, CNT_WIDTH, start_particles
+
+    n = states.shape[0]
+    carry = Carry(
+        np.zeros((n, CARRY_WIDTH)),
+        np.zeros((n, ff_lags, 6)),
+        np.zeros((n, ff_lags, 4)),
+        np.zeros((n, ff_lags, CNT_WIDTH), dtype=np.int64),
+        np.zeros((n, pmax, 3)),
+    )
+    start_particles(states, carry.state)
+    return carry
+
+
 def run_chunked(advance, carry, status, end_periods, *, chunk_events=None, progress=None):
     """Call ``advance(budget)`` until no particle is running; return between chunks.
 
@@ -455,7 +496,7 @@ def ensemble(
     )
     if initial is None:
         ics = initial_conditions(params, n, seed, box)
-    carry = core.new_carry(kernel_states(params, ics), lags, 0)
+    carry = new_carry(kernel_states(params, ics), lags, 0)
     disp, acc, counts, status = out["disp"], out["acc"], out["counts"], out["status"]
 
     def advance(budget):

@@ -32,7 +32,6 @@ Conventions (docs/model.md §3 and §4):
 """
 
 import math
-from typing import NamedTuple
 
 import numpy as np
 from numba import njit, prange
@@ -77,31 +76,14 @@ REC_WIDTH = 7
 #: Status of a particle that has not reached the end yet (between chunks); the finished
 #: ones carry a ``core.status`` code (>= 0).
 RUNNING = -1
-#: Columns of a particle's loop state ``carry.state`` (everything ``particle_loop`` keeps
-#: between events): the last event ``periods, phase, tile, xi, vx, vyrel, kind``, the
-#: start ``tile0, xi0``, the next sample index, the trap, the last departure
-#: ``(periods, phase)``, the feature ring count and tiny-hop run, the releases remembered.
+#: Columns of a particle's loop state ``carry.state`` (``bbdyn.ensemble.Carry``; everything
+#: ``particle_loop`` keeps between events): the last event ``periods, phase, tile, xi, vx,
+#: vyrel, kind``, the start ``tile0, xi0``, the next sample index, the trap, the last
+#: departure ``(periods, phase)``, the feature ring count and tiny-hop run, the releases
+#: remembered.
 C_TILE0, C_XI0, C_K, C_TRAP, C_DEP_P, C_DEP_PH = 7, 8, 9, 10, 11, 12
 C_NRING, C_RUN, C_NREL = 13, 14, 15
 CARRY_WIDTH = 16
-
-
-class Carry(NamedTuple):
-    """Per-particle loop state carried from one chunk of events to the next.
-
-    ``state`` (n, CARRY_WIDTH), columns ``C_*``; the fast-forward rings ``rel``
-    (n, FF_LAGS or 0, 6), ``rel_acc`` (n, ., 4), ``rel_cnt`` (int64, n, ., CNT_WIDTH)
-    (see ``fast_forward``); the features' ring of the last collisions ``ring``
-    (n, pmax or 0, 3) (see ``features.feature_collision``).  Everything a particle's
-    loop needs to go on lives here, so a run cut into chunks makes the same
-    operations in the same order as one uncut run: the numbers are bitwise equal.
-    """
-
-    state: np.ndarray
-    rel: np.ndarray
-    rel_acc: np.ndarray
-    rel_cnt: np.ndarray
-    ring: np.ndarray
 
 
 @njit(cache=True)
@@ -283,24 +265,6 @@ def fast_forward(
     return 0, 0.0, 0.0, n_rel + 1
 
 
-def new_carry(states, ff_lags, pmax):
-    """A ``Carry`` for particles starting at ``states`` (n, 7); rings of ``ff_lags``, ``pmax``.
-
-    ``ff_lags`` is ``FF_LAGS`` with fast-forward, else 0 (no ring is kept); ``pmax`` the
-    features' longest period, else 0.  Plain Python: it only allocates and starts.
-    """
-    n = states.shape[0]
-    carry = Carry(
-        np.zeros((n, CARRY_WIDTH)),
-        np.zeros((n, ff_lags, 6)),
-        np.zeros((n, ff_lags, 4)),
-        np.zeros((n, ff_lags, CNT_WIDTH), dtype=np.int64),
-        np.zeros((n, pmax, 3)),
-    )
-    start_particles(states, carry.state)
-    return carry
-
-
 @njit(cache=True)
 def start_particles(states, carry_state):
     """Write the loop state of particles starting at ``states`` (n, 7) into ``carry_state``."""
@@ -327,7 +291,8 @@ def particle_loop(
     """Integrate one particle for at most ``budget`` events toward ``end``; feed the accumulators.
 
     The particle goes on from its loop state ``cs`` (and rings ``rel, rel_acc, rel_cnt``,
-    ``ring``, a particle's rows of a ``Carry``) and leaves it there: calling again goes on
+    ``ring``, a particle's rows of a
+    ``bbdyn.ensemble.Carry``) and leaves it there: calling again goes on
     exactly where it stopped, so the numbers do not depend on how the run is cut.
 
     Parameters
@@ -335,7 +300,7 @@ def particle_loop(
     cs : array, shape (CARRY_WIDTH,)
         Loop state, columns ``C_*`` (``start_particles``); updated in place.
     rel, rel_acc, rel_cnt, ring : arrays
-        The particle's rings (``Carry``); updated in place.
+        The particle's rings; updated in place.
     budget : int
         Events (calls of ``billiard_event``) at most in this call.
     kp : KernelParams
@@ -523,12 +488,13 @@ def run_ensemble(
     """Advance every running particle by at most ``budget`` events (prange over particles).
 
     Call it again while some ``status`` is ``RUNNING``: the outputs are filled in place
-    and do not depend on ``budget`` (see ``Carry``).
+    and do not depend on ``budget`` (see ``bbdyn.ensemble.Carry``).
 
     Parameters
     ----------
-    carry : Carry
-        Loop states (``new_carry``; rings of ``FF_LAGS`` with fast-forward, ``pmax`` 0).
+    carry : bbdyn.ensemble.Carry
+        Loop states (``bbdyn.ensemble.new_carry``; rings of ``FF_LAGS`` with fast-forward,
+        ``pmax`` 0).
     budget : int
         Events per particle at most in this call (>= 1).
     kp, end, sample_periods, sample_phase, record_window, flags
@@ -582,8 +548,9 @@ def run_features(
 
     Parameters
     ----------
-    carry : Carry
-        Loop states (``new_carry``; fast-forward rings of length 0, ``ring`` of ``pmax``).
+    carry : bbdyn.ensemble.Carry
+        Loop states (``bbdyn.ensemble.new_carry``; fast-forward rings of length 0, ``ring``
+        of ``pmax``).
     budget : int
         Events per particle at most in this call (>= 1).
     kp : KernelParams
