@@ -40,6 +40,7 @@ SCENES = {
     "S9": "s9_random_walk",
     "S10": "s10_green_kubo",
     "B3": "b3_statcost",
+    "B5": "b5_lyapunov",
     "B6": "b6_fine_structure",
 }
 #: setting name -> attribute of a scene module holding its values
