@@ -41,6 +41,7 @@ SCENES = {
     "S10": "s10_green_kubo",
     "B3": "b3_statcost",
     "B5": "b5_lyapunov",
+    "B4": "b4_higher_tongues",
     "B6": "b6_fine_structure",
 }
 #: setting name -> attribute of a scene module holding its values
