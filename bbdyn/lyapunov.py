@@ -211,6 +211,10 @@ def _run_one(kp, phase, vrel, t0, t_ends, log_growth, impacts, collapses):
     state = (0.0, phase, vrel, IMPACT)
     if t0 > 0:
         *state, status = flat_tangent_run(*state, kp, np.array([t0]), frame, *scratch)
+        if status == STUCK_FOREVER:
+            # stuck for good before the measurement: a collapse, then no events
+            collapses[0] += 1
+            return status, np.diff(np.concatenate([[t0], t_ends])) / (kp.w / TWO_PI)
         if status != OK:
             return status, np.zeros(t_ends.size)
     start = state[0] + state[1] / TWO_PI

@@ -157,9 +157,15 @@ def test_a_stick_forgets_the_state_and_collapses_the_frame():
     assert np.all(np.isfinite(res.conditional_exponents()))
 
 
-def test_gamma_below_one_gives_no_positive_exponent():
+@pytest.mark.parametrize("transient", [0.0, 3.0])
+def test_gamma_below_one_gives_no_positive_exponent(transient):
+    """Stuck for good during the measurement or already during the transient."""
     p = params_at_gamma(0.8, alpha=ALPHA)
-    res = flat_lyapunov(p, 6, t=2.0, transient=0.0, seed=2)
+    res = flat_lyapunov(p, 6, t=2.0, transient=transient, seed=2)
+    # measured from the first event (within a period of the start) to the end of the run
+    d = res["duration"].sum(axis=1)
+    assert np.all((d > 2.0 - 1.0 / p.f) & (d <= 2.0 + 1e-12))
+    assert res.summary()["stuck_fraction"] == 1.0
     assert set(res["status"]) == {STUCK_FOREVER}
     assert np.all(res.exponents() == -math.inf)
     # every particle ends stuck for good, having collapsed its frame
