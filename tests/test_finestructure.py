@@ -102,6 +102,11 @@ def _takagi_levels(rng, H, se):
     return tests
 
 
+def _fit(tests):
+    columns = ([t[k] for t in tests] for k in ("S2", "S2_err", "S2_spread"))
+    return fs.scaling_exponent(STEPS, *columns)
+
+
 @pytest.mark.parametrize("H", [0.3, 0.5, 0.7])
 def test_fractal_found_and_exponent_recovered(H):
     rng = np.random.default_rng(int(10 * H))
@@ -109,8 +114,7 @@ def test_fractal_found_and_exponent_recovered(H):
     for _ in range(100):
         tests = _takagi_levels(rng, H, 3e-4)
         assert all(t["p"] < fs.P_STRUCTURE for t in tests)
-        fits.append(fs.scaling_exponent(STEPS, *([t[k] for t in tests]
-                                                 for k in ("S2", "S2_err", "S2_spread"))))  # fmt: skip
+        fits.append(_fit(tests))
     h = np.array([f["H"] for f in fits])
     err = np.array([f["H_err"] for f in fits])
     assert np.mean(np.abs(h - H) < 2 * err) > 0.85
@@ -122,8 +126,7 @@ def test_pure_noise_gives_no_exponent():
     measurable = 0
     for _ in range(200):
         tests = [fs.level_test(rng.standard_normal(11), np.ones(11)) for _ in STEPS]
-        fit = fs.scaling_exponent(STEPS, *([t[k] for t in tests]
-                                           for k in ("S2", "S2_err", "S2_spread")))  # fmt: skip
+        fit = _fit(tests)
         measurable += np.isfinite(fit["H"])
     assert measurable < 200 * 0.05
 
@@ -172,7 +175,8 @@ def test_scene_b6_tiny_run_shares_and_resumes(tmp_path):
     for lv in range(2):
         sel = res["level"] == lv
         assert res["chi2"][0, lv] == pytest.approx(
-            fs.level_test(res["D"][sel], res["D_err"][sel])["chi2"])
+            fs.level_test(res["D"][sel], res["D_err"][sel])["chi2"]
+        )
     again = b6.compute(TINY, seed=1, out_dir=tmp_path)  # loaded from the stored scan
     np.testing.assert_array_equal(again["D"], res["D"])
     assert len(list(tmp_path.glob("scans/finestructure_*"))) == 1
