@@ -11,6 +11,14 @@ velocities (mm/s).  Particle ``i`` draws row ``i`` of one ``(n, 3)`` array of
 uniforms from ``np.random.default_rng(np.random.SeedSequence(seed))``, so its
 initial condition depends only on the seed and on ``i`` (not on ``n``, nor on
 the number of threads).
+
+Runs are checked before anything large is allocated (``check_run``, ``check_n``,
+``check_size``: limits ``MAX_PERIODS``, ``MAX_EVENTS``, ``MAX_BYTES``, with an estimate
+of events, CPU time and memory from the rate model ``EVENTS_PER_PERIOD``), and run in
+chunks of about ``CHUNK_EVENTS`` events (``run_chunked``): Ctrl-C stops a run between
+chunks, and the numbers do not depend on the chunk size.  A particle the kernel fails on
+is kept with its status (``failed_particles``, ``on_failure``); the estimators use the
+others.  ``bbdyn.classify`` uses the same checks and chunked runs.
 """
 
 from __future__ import annotations
