@@ -198,3 +198,7 @@ def test_scene_b6_passes_the_scheduler(monkeypatch, tmp_path):
         b6.compute({**TINY, "scheduler": "tcp://cluster:8786"}, 0, out_dir=tmp_path)
     assert seen["scheduler"] == "tcp://cluster:8786"
     assert seen["out_dir"] == b6.scan_folder(TINY, 0, tmp_path)  # scheduler not in the digest
+    monkeypatch.setenv(b6.SCHEDULER_VARIABLE, "tcp://other:8786")
+    with pytest.raises(RuntimeError, match="stop"):
+        b6.compute(TINY, 0, out_dir=tmp_path)
+    assert seen["scheduler"] == "tcp://other:8786"

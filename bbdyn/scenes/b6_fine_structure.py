@@ -9,16 +9,19 @@ increment S2; where S2 is resolved on two or more levels, its log-log slope agai
 the step gives a Hoelder-type exponent H (S2 ~ step^(2 H)).
 
 All points of a setting form one resumable scan (``bbdyn.scan.run_scan``) kept under
-``out_dir`` (``scan_folder``); ``settings["scheduler"]`` (a dask scheduler address
-or client) runs it on a cluster, ``settings["workers"]`` sets the local processes.
-Neither enters the scan folder's name: a scan started locally can be finished on a
-cluster and gives the same numbers.
+``out_dir`` (``scan_folder``).  ``settings["scheduler"]`` (a dask scheduler address
+or client), else the environment variable ``BBDYN_SCHEDULER``, runs it on a cluster
+(``BBDYN_SCHEDULER=tcp://host:8786 bbdyn scene B6 --full``); ``settings["workers"]``
+sets the local processes.  Neither enters the scan folder's name: a scan started
+locally can be finished on a cluster and gives the same numbers (seeds depend on the
+frequency only, ``bbdyn.scan``).
 """
 
 from __future__ import annotations
 
 import functools
 import math
+import os
 import time
 
 import numpy as np
@@ -38,6 +41,8 @@ FULL = {"centres": (58.0, 70.0, 85.2, 89.0), "steps": _STEPS, "points": 21, "n":
         "t": 20.0}  # fmt: skip
 #: settings that define the scan (and its folder)
 SCAN_KEYS = ("centres", "steps", "points", "n", "t")
+#: environment variable naming a dask scheduler for the scan (when settings name none)
+SCHEDULER_VARIABLE = "BBDYN_SCHEDULER"
 #: bootstrap resamples per point (the bootstrap is only a cross-check of D_err)
 N_BOOT = 200
 
@@ -91,7 +96,7 @@ def run_points(settings: dict, seed: int, out_dir=None):
         out_dir=scan_folder(settings, seed, out_dir),
         seed=seed,
         workers=settings.get("workers"),
-        scheduler=settings.get("scheduler"),
+        scheduler=settings.get("scheduler") or os.environ.get(SCHEDULER_VARIABLE) or None,
         progress=settings.get("progress", False),
     )
 
