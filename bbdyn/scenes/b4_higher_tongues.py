@@ -180,14 +180,16 @@ def _draw_plane(result, ax):
         for n in range(1, result["doublings"].shape[2]):
             label = "doublings n >= 2 (continuation)" if i == 0 and n == 1 else None
             ax.plot(result["doublings"][i, :, n], alphas, "k.-", lw=0.6, ms=2, label=label)
-    for j in range(len(result["km_k"])):
-        k, m, al = int(result["km_k"][j]), int(result["km_m"][j]), result["km_alpha"][j]
-        ax.plot([result["km_lo"][j], result["km_hi"][j]], [al, al], "r-", lw=2.5)
-        ax.annotate(f"{k}/{m}", (result["km_hi"][j], al), fontsize=6, color="r")
-    ax.plot([], [], "r-", lw=2.5, label="stable k/m (fold to flip)")
-    ax.set(xlabel=r"$\Gamma$", ylabel=r"$\alpha$", ylim=(0, 1), xlim=(0, None))
+    pairs = sorted({(int(k), int(m)) for k, m in zip(result["km_k"], result["km_m"], strict=True)})
+    for c, (k, m) in enumerate(pairs):
+        sel = (result["km_k"] == k) & (result["km_m"] == m)
+        lo, hi, al = result["km_lo"][sel], result["km_hi"][sel], result["km_alpha"][sel]
+        color = f"C{(c + 3) % 10}"
+        ax.plot(np.stack([lo, hi]), np.stack([al, al]), "-", color=color, lw=3)
+        ax.plot(0.5 * (lo + hi), al, "o", color=color, ms=3, label=f"{k}/{m} stable (fold to flip)")
+    ax.set(xlabel=r"$\Gamma$", ylabel=r"$\alpha$", ylim=(0, 1), xlim=(0, 7))
     ax.set_title("k/1 tongues (shaded), doublings, k/m intervals")
-    ax.legend(loc="upper right", fontsize=7)
+    ax.legend(loc="upper right", fontsize=6)
 
 
 def _draw_diagram(result, ax):
