@@ -194,3 +194,61 @@ def test_bad_input_is_refused_with_the_parameter_named():
         flat_lyapunov(p, 2, t=1.0, windows=0)
     with pytest.raises(ValueError, match="per must be"):
         flat_lyapunov(p, 1, t=0.1).exponents("year")
+
+
+#: The measurement quoted in docs/lyapunov.md: ``bbdyn lyapunov --f F`` (defaults n = 20,
+#: t = 20 s, transient = 2 s, seed = 0), flat ball, alpha = 0.5.
+DOC_FREQS = (58.0, 70.0, 85.2, 88.4)
+
+
+def _fmt(value, se):
+    """``value ± se``; a spread at rounding level (identical particles) is written 0."""
+    if value == -math.inf:
+        return "-inf"
+    return f"{value:.4g} ± {se if se > 1e-9 * abs(value) else 0:.2g}"
+
+
+def doc_rows() -> list[str]:
+    """The rows of the measured table in docs/lyapunov.md, recomputed."""
+    rows = []
+    for f in DOC_FREQS:
+        s = flat_lyapunov(Params(f=f), 20, t=20.0, transient=2.0, seed=0).summary()
+        rows.append(
+            f"| {f:g} | {_fmt(s['lam1_per_s'], s['lam1_per_s_se'])} "
+            f"| {_fmt(s['lam1_per_impact'], s['lam1_per_impact_se'])} "
+            f"| {_fmt(s['cond_lam1_per_s'], s['cond_lam1_per_s_se'])} "
+            f"| {_fmt(s['cond_lam1_per_impact'], s['cond_lam1_per_impact_se'])} "
+            f"| {s['stuck_fraction']:.2f} | {s['impacts_per_s']:.1f} |"
+        )
+    return rows
+
+
+def orbit_rows() -> list[str]:
+    """The periodic-orbit rows of docs/lyapunov.md: multipliers' logs against the tangent run."""
+    rows = []
+    gamma = tongue_gamma_hi(1, ALPHA) * 0.98
+    p = params_at_gamma(gamma, alpha=ALPHA)
+    orbits = [("1/1", p, k1_orbit_numeric(1, gamma, ALPHA), 1)]
+    gamma = tongue_gamma_hi(1, ALPHA) * 1.004
+    p2 = params_at_gamma(gamma, alpha=ALPHA)
+    one = k1_orbit_numeric(1, gamma, ALPHA)
+    out = (np.empty(3000), np.empty(3000), np.empty(3000), np.empty(3000, np.int64))
+    flat_run(0.0, one["phase"][0] + 1e-4, one["vrel"][0], IMPACT, p2.kernel(), *out)
+    orbits.append(("2/2", p2, find_periodic_orbit(p2, 2, 2, out[1][-1], out[2][-1]), 2))
+    for name, pp, orbit, m in orbits:
+        res = flat_lyapunov_from(pp, [orbit["phase"][0]], [orbit["vrel"][0]], t=30.0)
+        mu = np.sort(np.log(np.abs(orbit.eigenvalues)))[::-1] / m
+        lam = res.exponents("impact")[0]
+        rows.append(
+            f"| {name} | {pp.f:.4f} | {mu[0]:.5f}, {mu[1]:.5f} | {lam[0]:.5f}, {lam[1]:.5f} "
+            f"| {int(res['impacts'].sum())} |"
+        )
+    return rows
+
+
+def test_numbers_in_the_docs_page_come_from_the_code():
+    from pathlib import Path
+
+    text = (Path(__file__).resolve().parents[1] / "docs" / "lyapunov.md").read_text()
+    for row in doc_rows() + orbit_rows():
+        assert row in text, row
