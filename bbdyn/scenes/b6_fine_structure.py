@@ -49,9 +49,10 @@ N_BOOT = 200
 
 class FineStructureResult(Result):
     """Arrays: per frequency ``f`` (Hz), ``D``, ``D_err`` (mm^2/s), ``centre``, ``level``
-    (indices), ``cpu_s``; ``centres`` (c,) Hz, ``steps`` (L,) Hz; per centre and level
-    (c, L): ``chi2``, ``dof``, ``p``, ``S2``, ``S2_err``, ``S2_spread`` (mm^4/s^2),
-    ``level_cpu_s``; per centre (c,): ``H``, ``H_err``, ``H_levels``."""
+    (indices), ``cpu_s`` (wall s of the point's process); ``centres`` (c,) Hz, ``steps``
+    (L,) Hz; per centre and level (c, L): ``chi2``, ``dof``, ``p``, ``S2``, ``S2_err``,
+    ``S2_spread`` (mm^4/s^2), ``level_cpu_s`` (summed ``cpu_s``); per centre (c,): ``H``,
+    ``H_err``, ``H_levels``."""
 
     kind = "scene_b6"
 
@@ -144,7 +145,7 @@ def _level_tables(arrays: dict, n_centres: int, n_levels: int) -> dict[str, np.n
 
 
 def level_rows(result: Result) -> list[dict]:
-    """One row per centre and level: the test, the size, the CPU time and the verdict."""
+    """One row per centre and level: the test, the size, the time and the verdict."""
     rows = []
     for c, centre in enumerate(result["centres"]):
         for lv, step in enumerate(result["steps"]):
@@ -157,7 +158,7 @@ def level_rows(result: Result) -> list[dict]:
 
 def table(result: Result) -> str:
     """The structure test per level as a Markdown table."""
-    lines = ["| centre (Hz) | step (Hz) | chi2 / dof | p | S2 (mm^4/s^2) | CPU (s) | conclusion |",
+    lines = ["| centre (Hz) | step (Hz) | chi2 / dof | p | S2 (mm^4/s^2) | time (s) | conclusion |",
              "|---:|---:|---:|---:|---:|---:|---|"]  # fmt: skip
     for r in level_rows(result):
         lines.append(f"| {r['centre']:g} | {r['step']:g} | {r['chi2']:.1f} / {r['dof']:g} | "
@@ -176,8 +177,34 @@ def key_numbers(result: Result) -> dict:
             else f"not measurable ({used:.0f} resolved levels, need 2)"
         )  # fmt: skip
     key["median D_err (mm^2/s)"] = f"{float(np.median(result['D_err'])):.3g}"
-    key["scan CPU time (s)"] = round(result.meta["scan_cpu_s"], 1)
+    key["precision cost D_err^2 x time per point (mm^4/s^2 s)"] = f"{precision_cost(result):.3g}"
+    key["scan time, summed over points (s)"] = round(result.meta["scan_cpu_s"], 1)
+    full = cost_estimate(result, FULL)
+    key["FULL setting estimate"] = (
+        f"{full['points']} points, about {full['cpu_s'] / 3600:.2g} hours of one core, "
+        f"D_err about {full['D_err']:.2g} mm^2/s"
+    )
     return key
+
+
+def precision_cost(result: Result) -> float:
+    """Median over points of ``D_err^2 x seconds``: constant while D_err ~ n^-1/2 and the
+    time ~ n (scene B3), so a point with error ``D_err`` costs about this / D_err^2 seconds.
+    Times are the scan's wall times per point (one process, one numba thread each): on
+    shared cores they exceed the CPU time."""
+    return float(np.median(result["D_err"] ** 2 * result["cpu_s"]))
+
+
+def cost_estimate(result: Result, settings: dict) -> dict[str, float]:
+    """Seconds (one core) and D_err of ``settings`` extrapolated from a measured ``result``: CPU per
+    point ~ n t f (events per period are about constant; B3), D_err ~ n^-1/2 (at the
+    measured frequencies: other centres differ)."""
+    f, _, _ = grid_points(settings)
+    values = np.unique(f)
+    per_unit = np.median(result["cpu_s"] / (result["f"] * result.meta["n"] * result.meta["t"]))
+    cpu = float(per_unit * settings["n"] * settings["t"] * values.sum())
+    d_err = float(np.median(result["D_err"]) * math.sqrt(result.meta["n"] / settings["n"]))
+    return {"points": int(values.size), "cpu_s": cpu, "D_err": d_err}
 
 
 def draw(result: Result, ax=None):
