@@ -252,3 +252,34 @@ def test_numbers_in_the_docs_page_come_from_the_code():
     text = (Path(__file__).resolve().parents[1] / "docs" / "lyapunov.md").read_text()
     for row in doc_rows() + orbit_rows():
         assert row in text, row
+
+
+def test_cli_json_is_strict_and_equals_the_api(capsys):
+    import json
+
+    from bbdyn.cli import main
+
+    assert main(["lyapunov", "--f", "120", "--alpha", "0.8", "--n", "3", "--t", "1", "--json"]) == 0
+    out = json.loads(capsys.readouterr().out, parse_constant=lambda c: pytest.fail(c))
+    s = flat_lyapunov(Params(f=120.0, alpha=0.8), 3, t=1.0, transient=2.0, seed=0).summary()
+    for key in ("lam1_per_s", "lam1_per_s_se", "lam1_per_impact", "cond_lam1_per_s"):
+        assert out[key] == (s[key] if math.isfinite(s[key]) else None)
+    # a stuck ensemble: -inf is null in JSON, with the note saying so
+    assert main(["lyapunov", "--f", "58", "--n", "2", "--t", "0.5", "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["lam1_per_s"] is None and out["stuck_fraction"] == 1.0 and "-inf" in out["note"]
+
+
+def test_scene_b5_marks_gamma_below_one_stuck_and_shades_the_closed_form_tongues():
+    import matplotlib
+
+    matplotlib.use("Agg")
+    from bbdyn.scenes import b5_lyapunov
+    from bbdyn.tongues import frequency_at_gamma, tongue_gamma_lo
+
+    settings = dict(b5_lyapunov.QUICK, n_f=2, f_stop=60.0, n=2, t=0.5, transient=0.5)
+    res = b5_lyapunov.compute(settings, seed=0)
+    assert res["f"][0] < frequency_at_gamma(1.0)  # 49.8 Hz: Gamma < 1
+    assert res["stuck_fraction"][0] == 1.0 and res["lam1"][0] == -math.inf
+    assert res["tongues"][0, 0] == pytest.approx(frequency_at_gamma(tongue_gamma_lo(1, 0.5)))
+    assert b5_lyapunov.draw(res).axes
