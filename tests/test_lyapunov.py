@@ -271,9 +271,6 @@ def test_cli_json_is_strict_and_equals_the_api(capsys):
 
 
 def test_scene_b5_marks_gamma_below_one_stuck_and_shades_the_closed_form_tongues():
-    import matplotlib
-
-    matplotlib.use("Agg")
     from bbdyn.scenes import b5_lyapunov
     from bbdyn.tongues import frequency_at_gamma, tongue_gamma_lo
 
