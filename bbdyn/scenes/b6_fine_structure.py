@@ -121,6 +121,7 @@ def compute(settings: dict, seed: int = 0, out_dir=None) -> FineStructureResult:
     meta["params"] = {k: v for k, v in Params(f=85.2).to_dict().items() if k != "f"}
     result = FineStructureResult(arrays, meta)
     result.meta["key_numbers"] = key_numbers(result)
+    result.meta["table"] = table(result)
     return result
 
 
