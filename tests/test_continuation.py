@@ -172,3 +172,64 @@ def test_doc_table_is_what_the_cascade_computes():
     # row 1 is the closed-form upper tongue edge
     for i in range(3):
         assert float(rows[0][1 + 2 * i]) == pytest.approx(tongue_gamma_hi(i + 1, 0.5), abs=1e-12)
+
+
+def _cli(argv):
+    """Exit status of ``bbdyn argv`` (SystemExit caught)."""
+    from bbdyn.cli import main
+
+    try:
+        return main(argv)
+    except SystemExit as exc:
+        return exc.code
+
+
+@pytest.mark.parametrize(
+    ("argv", "words"),
+    [
+        (["--alpha", "1"], "alpha must be in (0, 1)"),
+        (["--alpha", "0"], "alpha must be in (0, 1)"),
+        (["--levels", "0"], "levels must be an integer in [1, 14]"),
+        (["--kmax", "0"], "kmax must be an integer in [1, 20]"),
+    ],
+)
+def test_doublings_command_refuses_bad_input(argv, words, capsys):
+    assert _cli(["doublings", *argv]) == 2
+    assert words in capsys.readouterr().err
+
+
+def test_doublings_command_json_is_the_cascade(capsys):
+    """``bbdyn doublings --json``: the Gammas of ``doubling_cascade``, and the ratios
+    recomputed from those Gammas."""
+    import json
+
+    assert _cli(["doublings", "--alpha", "0.4", "--kmax", "2", "--levels", "4", "--json"]) == 0
+    rows = json.loads(capsys.readouterr().out)
+    assert [r["k"] for r in rows] == [1, 2]
+    for r in rows:
+        gammas, status, _, _ = cascade(r["k"], 0.4, 4)
+        assert r["status"] == status == "done"
+        assert r["gamma_doublings"] == gammas
+        d = np.diff(gammas)
+        np.testing.assert_allclose(r["feigenbaum_ratios"], d[:-1] / d[1:], rtol=1e-12)
+        assert r["gamma_doublings"][0] == pytest.approx(tongue_gamma_hi(r["k"], 0.4), abs=1e-12)
+
+
+def test_scene_b4_quick_agrees_with_closed_forms_and_iteration():
+    """Scene B4 (quick): first doublings are the closed-form Gamma_hi at every alpha, and
+    the direct-iteration diagram has 1 phase below Gamma_hi, 2 between the first two
+    doublings, 4 between the second and third (the continuation's values)."""
+    from bbdyn.scenes import b4_higher_tongues as b4
+
+    r = b4.compute(b4.QUICK)
+    ks = r["k"][:, None]
+    np.testing.assert_allclose(
+        r["doublings"][:, :, 0], tongue_gamma_hi(ks, r["alphas"][None, :], np), atol=1e-10
+    )
+    g1, g2, g3 = r["diag_doublings"][0, :3]
+    for lo, hi, count in ((b4.QUICK["diagram_gamma"][0], g1, 1), (g1, g2, 2), (g2, g3, 4)):
+        inside = (r["diag_gamma"] > lo + 0.1 * (hi - lo)) & (r["diag_gamma"] < hi - 0.1 * (hi - lo))
+        assert inside.any()
+        for phases in r["diag_phase"][inside]:
+            assert len(np.unique(np.round(phases, 6))) == count
+    assert np.all(r["km_lo"] < r["km_hi"])
