@@ -61,11 +61,16 @@ class LyapunovResult(Result):
         return growth, self["impacts"].sum(axis=1), self["duration"].sum(axis=1)
 
     def conditional_exponents(self, per: str = "second") -> np.ndarray:
-        """Exponents (n, 2) from the growth between collapses, per second (1/s) or per impact."""
+        """Exponents (n, 2) from the growth between collapses, per second (1/s) or per impact.
+
+        NaN for a particle without an impact carried by the Jacobian (nothing measured:
+        e.g. stuck for good before the measurement)."""
         growth, impacts, duration = self._totals()
         denom = _denominator(per, impacts, duration)
         with np.errstate(divide="ignore", invalid="ignore"):
-            return growth / denom[:, None]
+            lam = growth / denom[:, None]
+        lam[impacts == 0] = math.nan
+        return lam
 
     def exponents(self, per: str = "second") -> np.ndarray:
         """Exponents (n, 2) per second (1/s) or per impact; ``-inf`` for a particle that stuck."""

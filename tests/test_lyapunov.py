@@ -165,7 +165,10 @@ def test_gamma_below_one_gives_no_positive_exponent(transient):
     # measured from the first event (within a period of the start) to the end of the run
     d = res["duration"].sum(axis=1)
     assert np.all((d > 2.0 - 1.0 / p.f) & (d <= 2.0 + 1e-12))
-    assert res.summary()["stuck_fraction"] == 1.0
+    s = res.summary()
+    assert s["stuck_fraction"] == 1.0
+    if transient > 0:  # nothing measured between sticks
+        assert np.all(np.isnan(res.conditional_exponents())) and math.isnan(s["cond_lam1_per_s"])
     assert set(res["status"]) == {STUCK_FOREVER}
     assert np.all(res.exponents() == -math.inf)
     # every particle ends stuck for good, having collapsed its frame
@@ -278,5 +281,6 @@ def test_scene_b5_marks_gamma_below_one_stuck_and_shades_the_closed_form_tongues
     res = b5_lyapunov.compute(settings, seed=0)
     assert res["f"][0] < frequency_at_gamma(1.0)  # 49.8 Hz: Gamma < 1
     assert res["stuck_fraction"][0] == 1.0 and res["lam1"][0] == -math.inf
+    assert math.isnan(res["cond_lam1"][0])  # stuck for good during the transient
     assert res["tongues"][0, 0] == pytest.approx(frequency_at_gamma(tongue_gamma_lo(1, 0.5)))
     assert b5_lyapunov.draw(res).axes

@@ -98,5 +98,6 @@ def draw(result: Result, ax=None):
     ax2.plot(f, result["stuck_fraction"], "k:", lw=1)
     ax2.set(ylabel="fraction of particles that stuck", ylim=(-0.02, 1.02))
     ax.set_title("Flat ball: largest Lyapunov exponent")
-    ax.legend(loc="lower right", fontsize=7)
+    ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.14), ncol=3, fontsize=7)
+    fig.tight_layout()
     return fig
