@@ -36,6 +36,7 @@ __all__ = [
     "P_STRUCTURE",
     "Z_RESOLVED",
     "increment_covariance",
+    "detectable_rms",
     "level_test",
     "n_for_error",
     "nested_grid",
@@ -179,6 +180,15 @@ def scaling_exponent(steps, s2, s2_err, s2_spread) -> dict[str, float]:
         chi2_dof = float(np.sum(w * resid**2) / (ok.sum() - 2))
         err *= math.sqrt(max(chi2_dof, 1.0))
     return {"H": slope / 2, "H_err": err / 2, "levels": float(ok.sum()), "chi2_dof": chi2_dof}
+
+
+def detectable_rms(points: int) -> float:
+    """Smallest rms increment resolved (``S2 > Z_RESOLVED * S2_err``) on a level of
+    ``points`` values with equal errors, in units of that error: ``sqrt(Z_RESOLVED x the
+    pure-noise S2_err)``.  Divide the structure one wants to see by it to get the error
+    to budget for."""
+    y = np.zeros(int(points))
+    return math.sqrt(Z_RESOLVED * level_test(y, np.ones(y.size))["S2_err"])
 
 
 def n_for_error(n0: int, se0: float, se_target: float) -> int:
