@@ -30,8 +30,9 @@ QUICK = {
     "kmax": 3,
     "levels": 4,
     "alphas": (0.3, 0.5, 0.7),
-    "km": ((1, 2), (3, 2), (2, 3)),
+    "km": ((1, 2), (3, 2), (2, 3), (3, 4)),
     "km_gammas": (1.5, 2.5, 3.0, 4.0),
+    "km_phases": 24,
     "diagram_alpha": 0.5,
     "diagram_gamma": (1.45, 1.75),
     "n_gamma": 150,
@@ -42,8 +43,9 @@ FULL = {
     "kmax": 3,
     "levels": 8,
     "alphas": tuple(np.round(np.linspace(0.2, 0.8, 13), 3).tolist()),
-    "km": ((1, 2), (3, 2), (5, 2), (2, 3), (4, 3), (5, 3)),
+    "km": ((1, 2), (3, 2), (5, 2), (2, 3), (4, 3), (5, 3), (3, 4), (5, 4)),
     "km_gammas": tuple(np.round(np.linspace(1.0, 6.0, 21), 3).tolist()),
+    "km_phases": 24,
     "diagram_alpha": 0.5,
     "diagram_gamma": (1.45, 1.75),
     "n_gamma": 1200,
@@ -99,7 +101,9 @@ def _km(settings) -> dict:
     rows = []
     for k, m in settings["km"]:
         for a in settings["alphas"]:
-            for br in km_regions(int(k), int(m), float(a), settings["km_gammas"], n_phase=12):
+            for br in km_regions(
+                int(k), int(m), float(a), settings["km_gammas"], n_phase=int(settings["km_phases"])
+            ):
                 rows += [(k, m, a, lo, hi) for lo, hi in _stable_intervals(br) if hi > lo]
     rows = sorted(set(rows))
     cols = list(zip(*rows, strict=True)) if rows else [()] * 5
