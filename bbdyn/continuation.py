@@ -31,6 +31,8 @@ A branch ends with a ``status`` and a ``reason``:
   first contact of the exact kernel jumps to an earlier contact (a flight phase
   changes by more than ``FLIGHT_JUMP`` rad in a step that cannot be refined), or
   lands tangentially (``vrel- = 0``);
+* ``"replay"``: the simulator leaves the orbit (its events differ by more than
+  ``REPLAY_TOL``) without sticking;
 * ``"newton"``: the corrector fails at the smallest step for another reason.
 """
 
@@ -75,6 +77,8 @@ BIF_XTOL = 1e-14
 FLIGHT_JUMP = 0.3
 #: A flight whose interior gap falls below this fraction of its height scale grazes the plate.
 GRAZE_REL = 1e-3
+#: Replay of an orbit through the simulator: largest phase (rad) plus relative V deviation.
+REPLAY_TOL = 1e-9
 #: Largest corrector step (dimensionless): a longer one has left the branch's neighbourhood.
 MAX_NEWTON_STEP = 0.5
 #: Continuation steps per cascade level (about 15 are needed; a level that needs far more
@@ -159,21 +163,27 @@ def _scale(k: int, V: float) -> np.ndarray:
     return np.array([TWO_PI * k, abs(V) + TWO_PI * k])
 
 
-def _replay_ok(chain: Chain, gamma: float, alpha: float, k: int, m: int) -> str:
-    """'' if the simulator (``flat_event``) follows the orbit for m impacts, else why not."""
+def _replay_ok(chain: Chain, gamma: float, alpha: float, k: int, m: int) -> tuple[str, str]:
+    """``("", "")`` if the simulator (``flat_event``) follows the orbit for m impacts (every
+    event an impact, at the orbit's next phase (rad) and V (relative) to REPLAY_TOL), else
+    ``(status, why)`` with status ``"chatter"`` (a stick) or ``"replay"``."""
     kp = unit_kernel(gamma, alpha)
     periods, th, v = 0.0, chain.theta[0], chain.V[0]
     for i in range(m):
         periods, th, v, kind, status = flat_event(periods, th, v, IMPACT, kp)
         if status != OK:
-            return f"event {i}: {STATUS_MESSAGES[status]}"
+            return "replay", f"event {i}: {STATUS_MESSAGES[status]}"
         if kind != IMPACT:
             vin = chain.V[(i + 1) % m] / alpha
-            return (
+            return "chatter", (
                 f"impact {i + 1} of the {k}/{m} orbit at Gamma = {gamma:.12g} sticks "
                 f"(arrival speed {vin:.3g} g/w is below the chattering threshold)"
             )
-    return ""
+        j = (i + 1) % m
+        off = abs(math.remainder(th - chain.theta[j], TWO_PI)) + abs(v - chain.V[j]) / chain.V[j]
+        if off > REPLAY_TOL:
+            return "replay", f"event {i + 1}: the simulator leaves the {k}/{m} orbit by {off:.2g}"
+    return "", ""
 
 
 class Point(NamedTuple):
@@ -331,9 +341,9 @@ def continue_branch(
         start = _correct_at_gamma(*start, k, m, alpha)
     t0 = start.tangent if start.tangent[2] * direction >= 0 else -start.tangent
     p = Point(start.x, start.chain, t0)
-    why = _replay_ok(p.chain, p.x[2], alpha, k, m)
-    if why:
-        raise OrbitLost("chatter", why)
+    kind, why = _replay_ok(p.chain, p.x[2], alpha, k, m)
+    if kind:
+        raise OrbitLost(kind, why)
     points, bifs = [p], []
     status, reason = "max_steps", f"stopped after {max_steps} steps"
     tests = _tests(p.chain)
@@ -343,15 +353,15 @@ def continue_branch(
             try:
                 x, ch, its = _correct(p.x + try_ds * p.tangent, p.tangent, k, m, alpha)
                 jump = _jumped(p.chain, ch)
-                why = "" if jump >= 0 else _replay_ok(ch, x[2], alpha, k, m)
-                if jump < 0 and not why:
+                kind, why = ("", "") if jump >= 0 else _replay_ok(ch, x[2], alpha, k, m)
+                if jump < 0 and not kind:
                     break
                 lost = (
                     OrbitLost("grazing", f"flight {jump} of the {k}/{m} orbit jumps from "
                               f"{p.chain.flight[jump]:.6g} to {ch.flight[jump]:.6g} rad near "
                               f"Gamma = {p.x[2]:.12g}: the continued flight would cut through "
                               "the plate (an earlier first contact)")
-                    if jump >= 0 else OrbitLost("chatter", why)
+                    if jump >= 0 else OrbitLost(kind, why)
                 )  # fmt: skip
             except OrbitLost as err:
                 lost = err
@@ -545,7 +555,7 @@ def km_orbit_guesses(k: int, m: int, alpha: float, gammas, n_phase: int = 16) ->
                     p = _correct_at_gamma(theta, v, gamma, k, m, alpha)
                 except OrbitLost:
                     continue
-                if _least_period(p.chain) != m or _replay_ok(p.chain, gamma, alpha, k, m):
+                if _least_period(p.chain) != m or _replay_ok(p.chain, gamma, alpha, k, m)[0]:
                     continue
                 key = np.sort(p.chain.theta)
                 if any(np.allclose(key, s, atol=1e-7) for s in seen):

@@ -239,3 +239,23 @@ def test_scene_b4_quick_agrees_with_closed_forms_and_iteration():
         for phases in r["diag_phase"][inside]:
             assert len(np.unique(np.round(phases, 6))) == count
     assert np.all(r["km_lo"] < r["km_hi"])
+
+
+def test_replay_reports_a_stick_as_chatter_and_a_wrong_orbit_as_replay():
+    """A launch at 1e-9 g/w where the plate holds the ball chatters and sticks (status
+    "chatter"); a point that is not on its claimed orbit is reported as "replay"."""
+    from bbdyn.continuation import Chain, _replay_ok
+
+    def chain(theta, V):
+        z = np.zeros(2)
+        return Chain(z, np.eye(2), z, np.array([theta, theta]), np.array([V, V]), z)
+
+    kind, why = _replay_ok(chain(0.5, 1e-9), 1.5, 0.5, 1, 2)
+    assert kind == "chatter" and "sticks" in why
+    kind, _ = _replay_ok(chain(4.0, 2.0), 1.5, 0.5, 1, 2)
+    assert kind == "replay"
+    # the stable 1/1 orbit replays cleanly
+    gamma = 1.3
+    theta = TWO_PI - math.acos(k1_cos_phase(1, gamma, 0.5))
+    p = orbit_chain(theta, 2 * 0.5 * math.pi / 1.5, gamma, 1, 1, 0.5)
+    assert _replay_ok(p, gamma, 0.5, 1, 1) == ("", "")
