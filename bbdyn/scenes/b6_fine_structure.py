@@ -170,7 +170,15 @@ def table(result: Result) -> str:
 
 def key_numbers(result: Result) -> dict:
     """Per centre and level the verdict, per centre the exponent, and the cost."""
-    key = {f"{r['centre']:g} Hz, step {r['step']:g} Hz": r["verdict"] for r in level_rows(result)}
+    rows = level_rows(result)
+    key = {f"{r['centre']:g} Hz, step {r['step']:g} Hz": r["verdict"] for r in rows}
+    for centre in result["centres"]:
+        found = [r for r in rows if r["centre"] == centre and r["p"] < fs.P_STRUCTURE]
+        rest = [r for r in rows if r["centre"] == centre and r["p"] >= fs.P_STRUCTURE]
+        key[f"{centre:g} Hz conclusion"] = (
+            f"structure at steps {_steps_text(found)} Hz; not resolved at steps "
+            f"{_steps_text(rest)} Hz (p < {fs.P_STRUCTURE:g} counts as structure)"
+        )
     for c, centre in enumerate(result["centres"]):
         h, err, used = (float(result[k][c]) for k in ("H", "H_err", "H_levels"))
         key[f"{centre:g} Hz exponent H (S2 ~ step^2H)"] = (
@@ -186,6 +194,10 @@ def key_numbers(result: Result) -> dict:
         f"D_err about {full['D_err']:.2g} mm^2/s"
     )
     return key
+
+
+def _steps_text(rows: list[dict]) -> str:
+    return ", ".join(f"{r['step']:g}" for r in rows) or "none"
 
 
 def precision_cost(result: Result) -> float:
