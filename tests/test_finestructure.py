@@ -9,6 +9,9 @@ structure is found and the exponent recovered within its error.
 
 from __future__ import annotations
 
+import re
+from pathlib import Path
+
 import numpy as np
 import pytest
 from scipy import stats
@@ -202,3 +205,25 @@ def test_scene_b6_passes_the_scheduler(monkeypatch, tmp_path):
     with pytest.raises(RuntimeError, match="stop"):
         b6.compute(TINY, 0, out_dir=tmp_path)
     assert seen["scheduler"] == "tcp://other:8786"
+
+
+# ---- docs/fine_structure.md states what the code and the committed figure give ------------
+DOCS = Path(__file__).resolve().parents[1] / "docs"
+
+
+def test_doc_budget_numbers_are_computed():
+    text = (DOCS / "fine_structure.md").read_text(encoding="utf-8")
+    stated = re.findall(r"([\d.]+) se for m = (\d+)", text)
+    assert stated
+    for value, m in stated:
+        assert f"{fs.detectable_rms(int(m)):.2f}" == value
+
+
+def test_doc_table_is_the_figure_table():
+    import json
+
+    text = (DOCS / "fine_structure.md").read_text(encoding="utf-8")
+    meta = json.loads((DOCS / "figures" / "B6_medium.json").read_text())["meta"]
+    assert meta["table"] in text
+    stated = dict(re.findall(r"^\* (.+?): (.+)$", text.split("## Measured")[1], flags=re.M))
+    assert stated == {k: str(v) for k, v in meta["key_numbers"].items()}
