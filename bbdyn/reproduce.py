@@ -30,6 +30,7 @@ DOCS_FIGURES = {
     "S10": ("full", "S10_full"),
     "B1": ("medium", "B1_medium"),
     "B3": ("medium", "B3_statcost"),
+    "B6": ("medium", "B6_medium"),
 }
 #: ``kind`` of the sidecar JSON of a figure made before provenance was recorded
 PRE_PROVENANCE = "pre-provenance"
