@@ -184,6 +184,10 @@ def test_scene_b6_tiny_run_shares_and_resumes(tmp_path):
     np.testing.assert_array_equal(again["D"], res["D"])
     assert len(list(tmp_path.glob("scans/finestructure_*"))) == 1
     assert "| 85.2 | 0.05 |" in b6.table(res)
+    from bbdyn.results import load_result
+
+    loaded = load_result(res.save(tmp_path / "b6"))  # draw works from saved numbers
+    assert len(b6.draw(loaded).axes) == 2 + 1  # one panel per level and the scaling plot
 
 
 def test_scene_b6_passes_the_scheduler(monkeypatch, tmp_path):
