@@ -231,3 +231,15 @@ def test_doc_table_is_the_figure_table():
     assert meta["table"] in text
     stated = dict(re.findall(r"^\* (.+?): (.+)$", text.split("## Measured")[1], flags=re.M))
     assert stated == {k: str(v) for k, v in meta["key_numbers"].items()}
+
+
+def test_doc_settings_are_the_scene_settings():
+    from bbdyn.scenes import b6_fine_structure as b6
+
+    text = " ".join((DOCS / "fine_structure.md").read_text(encoding="utf-8").split())
+    for name, s in (("QUICK", b6.QUICK), ("MEDIUM", b6.MEDIUM), ("FULL", b6.FULL)):
+        line = text.split(f"* {name}")[1].split("* ")[0]
+        assert f"{s['points']} points per level" in line and f"n = {s['n']}" in line, name
+        centres = [f"{c:g}" for c in s["centres"]]
+        assert all(c in line for c in centres), name
+    assert f"({np.unique(b6.grid_points(b6.MEDIUM)[0]).size} scan points:" in text

@@ -33,7 +33,7 @@ from bbdyn.results import Result, make_meta
 TITLE = "Fine structure of D(f): nested grids around chosen frequencies, scaling of increments"
 _STEPS = (0.2, 0.05, 0.01, 0.002)
 QUICK = {"centres": (85.2,), "steps": _STEPS, "points": 7, "n": 50, "t": 5.0}
-#: The setting measured for docs/fine_structure.md (about 15 min of 2 shared cores).
+#: The setting measured for docs/fine_structure.md (fits in 15 min of 2 shared cores).
 MEDIUM = {"centres": (85.2,), "steps": _STEPS, "points": 11, "n": 10000, "t": 20.0}
 #: One point per regime band (docs/classification.md) and 85.2 Hz; see the budget in
 #: docs/fine_structure.md.
