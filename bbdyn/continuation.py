@@ -84,6 +84,9 @@ MAX_NEWTON_STEP = 0.5
 #: Continuation steps per cascade level (about 15 are needed; a level that needs far more
 #: has lost its branch, and its cost grows as 2^n impacts per step).
 CASCADE_MAX_STEPS = 300
+#: A cascade level must double within this many times the previous level's Gamma interval
+#: (the expected distance is 1 / 4.67 of it); a branch that goes further has missed it.
+CASCADE_REACH = 2.0
 #: Feigenbaum's constant (period doubling of one-hump maps, and of area-contracting maps).
 FEIGENBAUM_DELTA = 4.669201609102990
 
@@ -119,8 +122,10 @@ def _gamma_column(theta, x, v_minus, gamma, alpha):
 class Chain(NamedTuple):
     """One pass around a candidate k/m orbit (dimensionless).
 
-    ``residual`` (2,), ``monodromy`` (2, 2), ``d_gamma`` (2,) = dR/dGamma, and per
-    impact ``theta`` (m,) (mod 2 pi), ``V`` (m,) after it, ``flight`` (m,) phase advances.
+    ``residual`` (2,), ``monodromy`` (2, 2), ``d_gamma`` (2,) = dR/dGamma, per impact
+    ``theta`` (m,) (mod 2 pi), ``V`` (m,) after it, ``flight`` (m,) phase advances, and
+    ``det`` = det(monodromy) as the product of the one-impact determinants (accurate
+    where the product matrix is nearly singular and its own determinant is rounding).
     """
 
     residual: np.ndarray
@@ -129,6 +134,7 @@ class Chain(NamedTuple):
     theta: np.ndarray
     V: np.ndarray
     flight: np.ndarray
+    det: float
 
 
 def orbit_chain(theta: float, V: float, gamma: float, k: int, m: int, alpha: float) -> Chain:
@@ -138,7 +144,7 @@ def orbit_chain(theta: float, V: float, gamma: float, k: int, m: int, alpha: flo
     otherwise) when a flight fails or an impact leaves ``V <= 0``.
     """
     kp = unit_kernel(gamma, alpha)
-    jac, col = np.eye(2), np.zeros(2)
+    jac, col, det = np.eye(2), np.zeros(2), 1.0
     th, v = theta % TWO_PI, V
     thetas, vs, flights = np.empty(m), np.empty(m), np.empty(m)
     for i in range(m):
@@ -150,12 +156,13 @@ def orbit_chain(theta: float, V: float, gamma: float, k: int, m: int, alpha: flo
             raise OrbitLost(kind, f"flight {i} of the {k}/{m} orbit at Gamma = {gamma!r}: {why}")
         b = _gamma_column(th, x, -v_new / alpha, gamma, alpha)
         jac = j @ jac
+        det *= j[0, 0] * j[1, 1] - j[0, 1] * j[1, 0]
         col = j @ col + np.array(b)
         flights[i] = x
         th, v = (th + x) % TWO_PI, v_new
     total = float(np.sum(flights))
     residual = np.array([total - TWO_PI * k, v - V])
-    return Chain(residual, jac, col, thetas, vs, flights)
+    return Chain(residual, jac, col, thetas, vs, flights, det)
 
 
 def _scale(k: int, V: float) -> np.ndarray:
@@ -235,9 +242,20 @@ def _correct_at_gamma(theta, V, gamma, k, m, alpha) -> Point:
 
 
 def _tests(ch: Chain) -> tuple[float, float]:
-    """Test functions ``det(M - I)`` (fold, +1) and ``det(M + I)`` (flip, -1)."""
-    eye = np.eye(2)
-    return float(np.linalg.det(ch.monodromy - eye)), float(np.linalg.det(ch.monodromy + eye))
+    """Test functions ``det(M - I) = 1 - tr M + det M`` (fold, +1) and ``det(M + I) =
+    1 + tr M + det M`` (flip, -1), with ``det M`` from ``Chain.det``: deep in a cascade
+    M is nearly singular and ``np.linalg.det(M +- I)`` would lose it to rounding."""
+    tr = float(np.trace(ch.monodromy))
+    return 1.0 - tr + ch.det, 1.0 + tr + ch.det
+
+
+def _multipliers(ch: Chain) -> np.ndarray:
+    """The two multipliers (complex) from ``tr M`` and ``Chain.det``."""
+    half = 0.5 * complex(np.trace(ch.monodromy))
+    root = np.sqrt(half * half - ch.det)
+    big = half + root if half.real >= 0 else half - root  # no cancellation
+    small = ch.det / big if big != 0 else half
+    return np.array([big, small])
 
 
 class Bifurcation(NamedTuple):
@@ -418,7 +436,7 @@ def _bif_arrays(bifs: list[Bifurcation]) -> dict:
 
 
 def _branch(points, bifs, k, m, alpha, status, reason) -> Branch:
-    mult = np.array([np.linalg.eigvals(p.chain.monodromy) for p in points]).astype(complex)
+    mult = np.array([_multipliers(p.chain) for p in points])
     arrays = {
         "gamma": np.array([p.x[2] for p in points]),
         "theta": np.array([p.chain.theta for p in points]),
@@ -449,8 +467,10 @@ def switch_at_flip(bif: Bifurcation, k: int, m: int, alpha: float, ds: float) ->
         except OrbitLost:
             ds *= 0.5
             continue
-        split = abs(ch.theta[m] - ch.theta[0]) + abs(ch.V[m] - ch.V[0])
-        if split > 0.1 * ds:
+        # On the new branch the two halves differ by ~2 ds (|e0| + |e1|) >= 2 ds; the
+        # k/m orbit traversed twice differs by rounding only.
+        split = abs(math.remainder(ch.theta[m] - ch.theta[0], TWO_PI)) + abs(ch.V[m] - ch.V[0])
+        if split > 0.5 * ds:
             return Point(x, ch, _tangent(ch, t))
         ds *= 0.5
     raise OrbitLost("newton", f"no {2 * k}/{2 * m} orbit found next to the flip at {bif.gamma!r}")
@@ -510,14 +530,23 @@ def cascade(k: int, alpha: float, levels: int) -> tuple[list[float], str, str, l
     start, m, span = k1_start(k, alpha), 1, 0.5
     gammas, branches = [], []
     for _ in range(levels):
+        # past the previous doubling the next one is expected ~span / 4.67 on
+        gamma_max = gammas[-1] + CASCADE_REACH * span if gammas else 20.0
         br, _ = continue_branch(
             start, k * m, m, alpha, ds=0.02 * span, ds_max=0.1 * span, ds_min=1e-12 * span,
             stop_at_flip=True, skip_first_test=m > 1, max_steps=CASCADE_MAX_STEPS,
+            gamma_max=gamma_max,
         )  # fmt: skip
         branches.append(br)
         flips = [g for kind, g in br.bifurcations if kind == "flip"]
         if br.meta["status"] != "flip":
-            return gammas, br.meta["status"], br.meta["reason"], branches
+            why = br.meta["reason"]
+            if br.meta["status"] == "gamma_range":
+                why = (
+                    f"the {k * m}/{m} branch passed Gamma = {gamma_max:.15g} ({CASCADE_REACH:g} "
+                    f"times the previous interval) without a multiplier -1: level not resolved"
+                )
+            return gammas, br.meta["status"], why, branches
         gammas.append(flips[-1])
         i = int(np.flatnonzero(br["bif_kind"] == 1)[-1])
         x = np.array([br["bif_theta"][i], br["bif_V"][i], flips[-1]])

@@ -238,7 +238,7 @@ def test_replay_reports_a_stick_as_chatter_and_a_wrong_orbit_as_replay():
 
     def chain(theta, V):
         z = np.zeros(2)
-        return Chain(z, np.eye(2), z, np.array([theta, theta]), np.array([V, V]), z)
+        return Chain(z, np.eye(2), z, np.array([theta, theta]), np.array([V, V]), z, 1.0)
 
     kind, why = _replay_ok(chain(0.5, 1e-9), 1.5, 0.5, 1, 2)
     assert kind == "chatter" and "sticks" in why
