@@ -88,9 +88,10 @@ def explain(err: BaseException, args) -> tuple[int, str]:
     if isinstance(err, ValueError | TypeError):
         return EXIT_USAGE, f"{prog}: error: {text}\n{_see_help(prog)}"
     if isinstance(err, OSError):
-        where = f"{err.filename}: " if err.filename else ""
+        if not err.filename:  # not a path error: its message says what to do
+            return EXIT_FAILED, f"{prog}: error: {text}"
         return EXIT_FAILED, (
-            f"{prog}: error: {where}{err.strerror or text}\n"
+            f"{prog}: error: {err.filename}: {err.strerror or text}\n"
             "check the path: its folder must exist and be writable, with free space on the disk"
         )
     if isinstance(err, MemoryError):

@@ -173,3 +173,13 @@ def test_closed_pipe_exits_quietly(argv, status):
     proc.stdout.close()
     _, err = proc.communicate(timeout=120)
     assert err == "" and proc.returncode == status
+
+
+def test_an_oserror_that_is_not_about_a_path_keeps_its_own_remedy():
+    """The path hint is for path errors only: e.g. an unreachable scheduler says what to do."""
+    from bbdyn.cli import explain
+
+    status, text = explain(OSError("no scheduler answers at tcp://x: start it"), None)
+    assert status != 0 and "start it" in text and "check the path" not in text
+    status, text = explain(FileNotFoundError(2, "No such file or directory", "/nope/x"), None)
+    assert "/nope/x" in text and "check the path" in text

@@ -74,3 +74,21 @@ def test_one_particle_left_gives_no_standard_error():
     s = res.summary()
     assert s["n_ok"] == 1 and math.isnan(s["D_se"]) and math.isnan(s["E_se"])
     assert s["E"] == res["E"][0]
+
+
+def test_simulate_command_reports_a_failed_particle_and_uses_the_others(monkeypatch, capsys):
+    """``bbdyn simulate`` keeps going past a failed particle, says so, and its D by window
+    is computed from the particles that succeeded (NaN positions of the failed one left out)."""
+    import json
+
+    import bbdyn.ensemble as ens
+    from bbdyn.cli import main
+
+    monkeypatch.setattr(
+        ens, "initial_conditions", lambda *a, **k: np.array([GOOD[0], BAD, GOOD[1], GOOD[2]])
+    )
+    with pytest.warns(RuntimeWarning, match="1 of 4 particle"):
+        assert main(["simulate", "--f", "85.2", "--n", "4", "--t", "2", "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["n_failed"] == 1 and out["n_ok"] == 3
+    assert all(math.isfinite(d) for d in out["D_windows"]["D"])

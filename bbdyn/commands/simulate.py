@@ -58,7 +58,7 @@ def simulate_summary(args) -> dict:
     out = {"version": __version__, "params": params.to_dict(), "seed": args.seed}
     out.update(n=args.n, t=args.t, transient=res.meta["transient"], threads=res.meta["threads"])
     out.update(res.summary())
-    centres, D_w, se_w = einstein_D_windows(res["sample_times"], res["displacement"])
+    centres, D_w, se_w = einstein_D_windows(res["sample_times"], res["displacement"][res.ok])
     out["D_windows"] = {"t_centre": centres.tolist(), "D": D_w.tolist(), "D_se": se_w.tolist()}
     out["collisions"] = int(res["collisions"].sum())
     out["wall_s"] = res.meta["wall_s"]
