@@ -11,8 +11,10 @@ and the covariance ``C = B S B^T`` with ``S = diag(se^2)`` and B the difference
 operator: ``C_ii = se_i^2 + se_{i+1}^2``, ``C_{i,i+1} = -se_{i+1}^2`` (neighbouring
 increments share a point).  ``chi2 = (d - mu 1)^T C^{-1} (d - mu 1)``, minimised over
 mu, has K - 1 = m - 2 degrees of freedom; it equals the chi-squared of a weighted
-straight-line fit to the m values (a test checks the identity), so a smooth trend
-across the window is never mistaken for structure.  ``detrend=False`` tests mu = 0
+straight-line fit to the m values (a test checks the identity), so a linear trend
+across the window is not counted as structure; curvature across the window is (a
+smooth function shows "structure" on a window wide enough for its curvature to exceed
+the errors).  ``detrend=False`` tests mu = 0
 (K degrees of freedom) instead.
 
 The size.  ``S2 = |P d|^2 / K - tr(P C) / K`` with ``P = I - 1 1^T / K`` is an
