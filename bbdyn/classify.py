@@ -25,6 +25,7 @@ from dataclasses import asdict, dataclass
 import numpy as np
 
 from bbdyn.billiard import check_params
+from bbdyn.core.status import FAILURES
 from bbdyn.diffusion import einstein_D, einstein_D_windows, per_particle_slopes
 from bbdyn.ensemble import (
     Box,
@@ -203,6 +204,7 @@ def trajectory_features(
     blocks: int = 16,
     thresholds: Thresholds | None = None,
     threads: int | None = None,
+    on_failure: str = "keep",
 ) -> FeatureResult:
     """Per-trajectory features after a transient, computed on the fly.
 
@@ -230,6 +232,10 @@ def trajectory_features(
         Only the measurement fields are used here.
     threads : int, optional
         Numba threads (results do not depend on it).
+    on_failure : {"keep", "raise"}
+        Trajectories the kernel fails on: kept out of every attractor (label -2 in
+        ``classify_features``, counted in ``meta["n_failed"]``, with a warning), or raise
+        ``SimulationError`` (``bbdyn.ensemble.failed_particles``).
 
     Returns
     -------
@@ -287,8 +293,7 @@ def trajectory_features(
     with numba_threads(threads):
         run_chunked(advance, carry, out["status"], end[0])
     wall = time.perf_counter() - start
-    # classify_features has no notion of a failed trajectory yet: a failure raises
-    failed_particles(out["status"], ics, "raise")
+    failures = failed_particles(out["status"], ics, on_failure)
     del out["counts"]
     # ---- end of the features run
     out.update(initial=ics, box_index=box_index, sample_times=sample_times)
@@ -304,6 +309,7 @@ def trajectory_features(
         start_phase=start_phase,
         boxes=None if initial is not None else [vars(b) for b in boxes],
         thresholds=asdict(th),
+        **failures,
     )
     return FeatureResult(out, meta)
 
@@ -475,7 +481,8 @@ def classify_features(feat: FeatureResult, thresholds: Thresholds | None = None)
     average (``GROUP_FEATURES``) agrees between the first and second half of the window;
     settled trajectories whose averages pairwise agree (``Thresholds.z``, ``abs_tol``) are
     linked, and each connected group of at least ``min_members`` is an attractor; the
-    others get label -1 (unsettled).  Basin fractions and the unsettled fraction sum to one.
+    others get label -1 (unsettled); trajectories the kernel failed on get -2 (failed).  Basin
+    fractions, the unsettled and the failed fraction sum to one.
     Each attractor gets its Einstein D (``attractor_D`` over its trajectories, window
     ``FeatureResult.D_window``), energies (kg mm^2/s^2) and stuck fraction with standard
     errors over its trajectories (the keys of ``bbdyn simulate``; units in ``UNITS``).
@@ -493,11 +500,12 @@ def classify_features(feat: FeatureResult, thresholds: Thresholds | None = None)
     pp = feat.per_particle()
     pp["period"] = feat.periods(th.period_tol)
     n = pp["E"].size
-    settled = np.ones(n, dtype=bool)
+    failed = np.isin(feat["status"], FAILURES)
+    settled = ~failed
     for name in GROUP_FEATURES:
         diff = np.abs(pp[name + "_h1"] - pp[name + "_h2"])
         settled &= diff <= th.z * pp[name + "_hse"] + th.abs_tol
-    labels = np.full(n, -1)
+    labels = np.where(failed, -2, -1)
     idx = np.flatnonzero(settled)
     if idx.size:
         comp = _group(pp, idx, th)
@@ -574,6 +582,8 @@ def classify_features(feat: FeatureResult, thresholds: Thresholds | None = None)
         "E_reference": 0.5 * (p.A * p.w) ** 2,
         "units": UNITS,
         "unsettled_fraction": unsettled,
+        "failed_fraction": float(np.mean(failed)),
+        "failures": feat.meta.get("failures", {}),
         "n": n,
         "t": feat.meta["t"],
         "transient": feat.meta["transient"],
@@ -586,7 +596,8 @@ def classify_features(feat: FeatureResult, thresholds: Thresholds | None = None)
     for name in ("E", "E_kin", "tiny_fraction", "locked_fraction", "jump_rate",
                  "stuck_fraction", "period", "locking_k", "coherence"):  # fmt: skip
         arrays[name] = pp[name]
-    arrays["D"] = 0.5 * per_particle_slopes(times, disp, window)
+    arrays["D"] = np.full(n, np.nan)  # failed trajectories have no displacement to fit
+    arrays["D"][~failed] = 0.5 * per_particle_slopes(times, disp[~failed], window)
     return Classification(arrays, meta)
 
 
@@ -660,6 +671,7 @@ def classify(
     blocks: int = 16,
     thresholds: Thresholds | None = None,
     threads: int | None = None,
+    on_failure: str = "keep",
 ) -> Classification:
     """Classify the dynamics at ``params``: ``trajectory_features`` then ``classify_features``.
 
@@ -672,6 +684,7 @@ def classify(
     feat = trajectory_features(
         params, t=t, n=n, seed=seed, boxes=boxes, initial=initial, start_phase=start_phase,
         transient=transient, blocks=blocks, thresholds=thresholds, threads=threads,
+        on_failure=on_failure,
     )  # fmt: skip
     out = classify_features(feat, thresholds)
     out.meta["summary"]["feature_wall_s"] = feat.meta["wall_s"]
@@ -681,7 +694,7 @@ def classify(
 class Classification(Result):
     """Attractors, basins, ergodicity and regime (``meta["summary"]``, JSON-ready).
 
-    Arrays: ``labels`` (n,) attractor per trajectory (-1 unsettled), ``initial`` (n, 3),
+    Arrays: ``labels`` (n,) attractor per trajectory (-1 unsettled, -2 failed), ``initial`` (n, 3),
     ``box_index`` (n,), and per-trajectory time averages used as evidence (energies in
     A^2 w^2 / 2, as ``FeatureResult.block_values``), with ``D`` (mm^2/s) each trajectory's
     MSD slope / 2 over the D window (``diffusion.per_particle_slopes``): its mean over an
@@ -701,7 +714,7 @@ class Classification(Result):
         if ax is None:
             _, ax = plt.subplots()
         lab = self["labels"]
-        for a in np.unique(lab):
+        for a in np.unique(lab[lab > -2]):  # failed trajectories have no time averages
             sel = lab == a
             name = "unsettled" if a < 0 else f"attractor {a} ({np.mean(sel):.2f})"
             ax.plot(self["tiny_fraction"][sel], self["E"][sel], "." if a >= 0 else "x", label=name)

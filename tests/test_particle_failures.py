@@ -92,3 +92,25 @@ def test_simulate_command_reports_a_failed_particle_and_uses_the_others(monkeypa
     out = json.loads(capsys.readouterr().out)
     assert out["n_failed"] == 1 and out["n_ok"] == 3
     assert all(math.isfinite(d) for d in out["D_windows"]["D"])
+
+
+def test_classification_keeps_the_others_and_counts_the_failed_one():
+    """A failed trajectory is left out of every attractor (label -2): the others get the labels
+    and features they get alone, and basins + unsettled + failed fractions sum to one."""
+    from bbdyn.classify import classify, trajectory_features
+
+    kw = {"t": 4.0, "blocks": 4}
+    mixed_ics = [GOOD[0], BAD, GOOD[1], GOOD[2]] * 2
+    with pytest.warns(RuntimeWarning, match="2 of 8 particle"):
+        mixed = classify(Params(f=85.2), initial=mixed_ics, **kw)
+    good = classify(Params(f=85.2), initial=GOOD * 2, **kw)
+    rows = [0, 2, 3, 4, 6, 7]
+    assert np.array_equal(mixed["labels"][[1, 5]], [-2, -2])
+    assert np.array_equal(mixed["labels"][rows], good["labels"])
+    assert np.array_equal(mixed["D"][rows], good["D"])
+    s = mixed.summary
+    assert s["failed_fraction"] == 0.25 and s["failures"] == {"root_not_converged": 2}
+    total = sum(a["fraction"] for a in s["attractors"]) + s["unsettled_fraction"]
+    assert math.isclose(total + s["failed_fraction"], 1.0)
+    with pytest.raises(SimulationError, match="2 of 8 particle"):
+        trajectory_features(Params(f=85.2), initial=mixed_ics, on_failure="raise", **kw)

@@ -139,6 +139,9 @@ def run(args) -> int:
     print(f"  ergodic {out['ergodic']}: {e['n_attractors']} attractor(s), unsettled "
           f"{e['unsettled_fraction']:.3g}, reduced chi2 [{chi2}] "
           f"(<= {e['max_reduced_chi2']})")  # fmt: skip
+    if out["failed_fraction"]:
+        print(f"  failed {out['failed_fraction']:.3g} of the trajectories ({out['failures']}): "
+              "left out of every attractor")  # fmt: skip
     for a, att in enumerate(out["attractors"]):
         print_attractor(a, att, out["units"])
     print(f"  wall time {out['wall_s']:.2f} s")
