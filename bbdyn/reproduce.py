@@ -30,6 +30,8 @@ DOCS_FIGURES = {
     "S10": ("full", "S10_full"),
     "B1": ("medium", "B1_medium"),
     "B3": ("medium", "B3_statcost"),
+    "B4": ("full", "B4_full"),
+    "B5": ("medium", "B5_medium"),
     "B6": ("medium", "B6_medium"),
 }
 #: ``kind`` of the sidecar JSON of a figure made before provenance was recorded
