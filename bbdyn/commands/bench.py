@@ -15,7 +15,8 @@ from bbdyn.commands import integer_in, jsonable, output_file, report_written
 HELP = "work-precision benchmark (B2): speed and error against an mpmath reference"
 
 #: target name -> module providing QUICK, FULL, compute, table, draw
-TARGETS = {"flat": "bbdyn.benchmarking.flat", "billiard": "bbdyn.benchmarking.billiard"}
+TARGETS = {"flat": "bbdyn.benchmarking.flat", "billiard": "bbdyn.benchmarking.billiard",
+           "scan-cost": "bbdyn.benchmarking.scan_cost"}  # fmt: skip
 
 #: Upper bounds of the overrides, 25 and 100 times the largest full settings (400
 #: compared impacts, 100000 long-run impacts).

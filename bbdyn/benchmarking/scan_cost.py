@@ -1,0 +1,242 @@
+"""Cost model of the full S3-S5 frequency scan (issue 12): `bbdyn bench scan-cost`.
+
+Model.  The CPU time of one scan point at frequency f with ``n`` particles and
+``t`` simulated seconds is ``a + n b + n t c(f)``: ``c(f)`` is the steady-state CPU
+time (s) per particle-second; ``a + n b`` (set-up, transient, analysis) is the same
+for ``t`` and ``2 t``.  So ``c`` is measured at a few sampled frequencies as
+``(T(n_s, 2 t_s) - T(n_s, t_s)) / (n_s t_s)`` with ``T`` the CPU time of
+``diffusion_point`` (this process, ``time.process_time``, numba on one thread;
+median over ``repeats`` pairs; energy-check particles scaled in proportion,
+``check = CHECK_SHARE n_s``).  Between the samples of one band (``BANDS``:
+regimes of different cost) ``c`` is interpolated linearly in f; the band's
+prediction is the sum of ``n t c(f)`` over its grid points with the full ``n`` and
+``t``, the total the sum over the bands.  ``a + n b`` is left out (measured:
+``overhead_s`` per sample at ``n_s``; for the full scan it is the transient and
+the fit of each point, small against ``n t c``).
+
+Error estimate.  (1) Timing noise: the relative spread (max - min) / median of the
+repeats.  (2) Interpolation: each interior sample of a band is predicted from its
+two neighbours (leave one out); the rms relative miss over all bands is the
+relative error of an interpolated point.  A band's relative error is the
+quadrature sum of the two (its samples' worst timing spread); the total adds the
+bands' errors in quadrature.  A band with a narrow expensive feature between its
+samples (a periodic window) is underestimated beyond this estimate: more samples
+show it.
+"""
+
+from __future__ import annotations
+
+import math
+import statistics
+import time
+from collections.abc import Callable
+from typing import Any
+
+import numpy as np
+
+from bbdyn.benchmarking.timing import single_thread
+from bbdyn.results import Result, make_meta
+
+__all__ = ["BANDS", "FULL", "QUICK", "compute", "predict", "sample_frequencies", "table"]
+
+#: Cost bands of the scan (Hz, grid points included at both ends): different regimes.
+BANDS = ((49.8, 53.0), (53.2, 57.4), (57.6, 65.0), (65.2, 80.0), (80.2, 95.0))
+#: The full S3-S5 scan: grid step (Hz), particles, simulated time (s).
+F_STEP, FULL_N, FULL_T = 0.2, 1000, 200.0
+#: Share of the particles rerun for the energy stationarity check (100 of 1000).
+CHECK_SHARE = 0.1
+
+QUICK = {"samples": 14, "n": 16, "t": 10.0, "repeats": 3}
+FULL = {"samples": 20, "n": 64, "t": 20.0, "repeats": 3}
+
+
+def band_grid(lo: float, hi: float, step: float = F_STEP) -> np.ndarray:
+    """Grid frequencies of one band, ``lo`` to ``hi`` included, rounded to 1e-9 Hz."""
+    return np.round(lo + step * np.arange(math.floor((hi - lo) / step + 1e-9) + 1), 9)
+
+
+def sample_frequencies(samples: int, bands=BANDS) -> list[np.ndarray]:
+    """Sampled grid frequencies per band: both ends, the rest shared equally (widest first).
+
+    ``samples`` >= 2 per band.  Within a band they are equally spaced, snapped to the grid.
+    """
+    if samples < 2 * len(bands):
+        raise ValueError(f"samples must be >= {2 * len(bands)} (2 per band), got {samples}")
+    spare = samples - 2 * len(bands)
+    extra = np.full(len(bands), spare // len(bands))
+    widest = np.argsort([lo - hi for lo, hi in bands], kind="stable")
+    extra[widest[: spare % len(bands)]] += 1
+    out = []
+    for (lo, hi), m in zip(bands, extra + 2, strict=True):
+        grid = band_grid(lo, hi)
+        idx = np.unique(np.round(np.linspace(0, grid.size - 1, min(m, grid.size))).astype(int))
+        out.append(grid[idx])
+    return out
+
+
+def predict(
+    samples: list[np.ndarray], costs: list[np.ndarray], bands=BANDS, n=FULL_N, t=FULL_T
+) -> np.ndarray:
+    """Predicted CPU time (s) per band: ``sum over the band's grid of n t c(f)``.
+
+    ``costs[i]`` holds ``c`` (CPU s per particle-second) at ``samples[i]``, the
+    sampled frequencies of band ``i`` (increasing, including its ends); ``c`` is
+    interpolated linearly in between.
+    """
+    out = []
+    for (lo, hi), f_s, c_s in zip(bands, samples, costs, strict=True):
+        grid = band_grid(lo, hi)
+        out.append(n * t * float(np.sum(np.interp(grid, f_s, c_s))))
+    return np.array(out)
+
+
+def loo_rel_errors(samples: list[np.ndarray], costs: list[np.ndarray]) -> np.ndarray:
+    """Relative misses of each interior sample predicted linearly from its neighbours."""
+    misses = []
+    for f_s, c_s in zip(samples, costs, strict=True):
+        for j in range(1, len(f_s) - 1):
+            guess = np.interp(f_s[j], (f_s[j - 1], f_s[j + 1]), (c_s[j - 1], c_s[j + 1]))
+            misses.append((guess - c_s[j]) / c_s[j])
+    return np.array(misses)
+
+
+def point_cpu(f: float, n: int, t: float) -> float:
+    """CPU time (s) of ``diffusion_point`` at ``f`` with ``n`` particles and ``t`` s.
+
+    The MSD samples are as far apart as in the full scan (``t / (n_samples - 1)``
+    = ``FULL_T / (N_SAMPLES - 1)``, at least 11 samples): periodic stick-release
+    cycles are fast-forwarded only between samples, so denser samples would cost more.
+    """
+    from bbdyn.frequency_scan import N_SAMPLES, diffusion_point
+    from bbdyn.scan import point_seed
+
+    check = max(2, round(CHECK_SHARE * n))
+    n_samples = max(11, round(t / FULL_T * (N_SAMPLES - 1)) + 1)
+    start = time.process_time()
+    diffusion_point(f, point_seed(0, f), n=n, t=t, n_samples=n_samples, check=check, n_boot=10)
+    return time.process_time() - start
+
+
+class ScanCostResult(Result):
+    """Scan cost model: sampled ``f``, ``c`` (CPU s per particle-second) and its spread;
+    ``meta["rows"]`` one per band and the total (``predicted_cpu_s``, ``error_cpu_s``)."""
+
+    kind = "bench_scan_cost"
+
+    def plot(self, ax=None):
+        """c(f) at the samples (with spread) and the bands."""
+        import matplotlib.pyplot as plt
+
+        if ax is None:
+            _, ax = plt.subplots()
+        f, c, spread = self["f"], self["cost"], self["spread"]
+        ax.errorbar(f, 1e6 * c, yerr=np.nan_to_num(1e6 * spread * np.abs(c) / 2), fmt="o-", ms=3)
+        for lo, _ in BANDS[1:]:
+            ax.axvline(lo - 0.1, color="0.7", lw=0.8)
+        ax.set_xlabel("f (Hz)")
+        ax.set_ylabel("CPU µs per particle-second (1 thread)")
+        return ax
+
+
+def compute(
+    settings: dict[str, Any],
+    *,
+    log: Callable[[str], None] | None = None,
+    timer: Callable[[float, int, float], float] = point_cpu,
+) -> ScanCostResult:
+    """Measure ``c`` at the sampled frequencies with ``timer(f, n, t) -> CPU s`` and predict.
+
+    ``settings``: ``samples`` (>= 10), ``n``, ``t`` (s; runs of ``t`` and ``2 t``),
+    ``repeats`` of each pair.  One untimed warm-up call first (numba compilation).
+    """
+    log = log or (lambda msg: None)
+    wall = time.perf_counter()
+    n, t, repeats = int(settings["n"]), float(settings["t"]), int(settings["repeats"])
+    if n < 2 or not t > 0 or repeats < 1:
+        raise ValueError(f"need n >= 2, t > 0 s and repeats >= 1; got n={n}, t={t}, {repeats=}")
+    single_thread()
+    samples = sample_frequencies(int(settings["samples"]))
+    timer(float(samples[0][0]), n, t)  # compile and warm up; not counted
+    costs, spreads, overheads = [], [], []
+    for f_s in samples:
+        c_band, s_band = [], []
+        for f in f_s:
+            pairs = [(timer(float(f), n, t), timer(float(f), n, 2.0 * t)) for _ in range(repeats)]
+            runs = [(t2 - t1) / (n * t) for t1, t2 in pairs]
+            med = statistics.median(runs)
+            c_band.append(med)
+            s_band.append((max(runs) - min(runs)) / abs(med) if med else math.inf)
+            overheads.append(statistics.median(2.0 * t1 - t2 for t1, t2 in pairs))
+            log(f"scan-cost: {f:.1f} Hz: {1e6 * med:.1f} µs per particle-second")
+        costs.append(np.array(c_band))
+        spreads.append(np.array(s_band))
+    pred = predict(samples, costs)
+    loo = loo_rel_errors(samples, costs)
+    interp_rel = float(np.sqrt(np.mean(loo**2))) if loo.size else math.nan
+    rows = []
+    for (lo, hi), p, s in zip(BANDS, pred, spreads, strict=True):
+        rel = math.hypot(float(s.max()), interp_rel)
+        rows.append(_row(f"{lo:.1f}-{hi:.1f} Hz", p, rel * p, pred.sum()))
+    total_err = math.sqrt(sum(r["error_cpu_s"] ** 2 for r in rows))
+    rows.append(_row("total", pred.sum(), total_err, pred.sum()))
+    arrays = {
+        "f": np.concatenate(samples),
+        "cost": np.concatenate(costs),
+        "spread": np.concatenate(spreads),
+        "loo_rel": loo,
+        "overhead_s": np.array(overheads),
+    }
+    meta = make_meta(
+        wall_s=time.perf_counter() - wall,
+        settings=settings,
+        rows=rows,
+        full={"f_step": F_STEP, "n": FULL_N, "t": FULL_T, "bands": [list(b) for b in BANDS]},
+        interp_rel_error=interp_rel,
+    )
+    return ScanCostResult(arrays, meta)
+
+
+def _row(band: str, cpu: float, err: float, total: float) -> dict[str, Any]:
+    return {
+        "method": "scan-cost",
+        "setting": band,
+        "predicted_cpu_s": float(cpu),
+        "error_cpu_s": float(err),
+        "share": float(cpu / total),
+    }
+
+
+def table(result: ScanCostResult) -> str:
+    """Prediction per band and in total, with the model's error estimate."""
+    s = result.meta["settings"]
+    lines = [
+        f"full scan (f step {F_STEP} Hz, n={FULL_N}, t={FULL_T} s) from {len(result['f'])} "
+        f"sampled frequencies at n={s['n']}, t={s['t']} and {2 * s['t']} s, "
+        f"median of {s['repeats']}:",
+        f"{'band':<16} {'CPU s':>9} {'+-':>7} {'share':>6}",
+    ]
+    for r in result.meta["rows"]:
+        lines.append(
+            f"{r['setting']:<16} {r['predicted_cpu_s']:>9.4g} {r['error_cpu_s']:>7.2g} "
+            f"{r['share']:>6.1%}"
+        )
+    lines.append(f"interpolation error (leave one out, rms): {result.meta['interp_rel_error']:.1%}")
+    lines.append("samples (Hz: CPU µs per particle-second):")
+    pairs = zip(result["f"], result["cost"], strict=True)
+    lines.append("  ".join(f"{f:.1f}: {1e6 * c:.3g}" for f, c in pairs))
+    return "\n".join(lines)
+
+
+def draw(result: ScanCostResult):
+    """Figure: c(f) at the samples."""
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=(8, 4))
+    result.plot(ax)
+    total = result.meta["rows"][-1]
+    ax.set_title(
+        f"predicted full scan: {total['predicted_cpu_s']:.3g} +- {total['error_cpu_s']:.2g} CPU s",
+        fontsize=9,
+    )
+    fig.tight_layout()
+    return fig

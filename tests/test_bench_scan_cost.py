@@ -1,0 +1,91 @@
+"""Scan cost model (issue 12): its arithmetic on fake timers with known cost, no timing."""
+
+import math
+
+import numpy as np
+import pytest
+
+from bbdyn.benchmarking import scan_cost as sc
+from bbdyn.frequency_scan import frequency_grid
+
+SETTINGS = {"samples": 17, "n": 4, "t": 2.5, "repeats": 3}
+
+
+def _band_linear_cost(f: float) -> float:
+    """CPU s per particle-second, linear inside each band with a jump between bands."""
+    for i, (lo, hi) in enumerate(sc.BANDS):
+        if lo - 1e-9 <= f <= hi + 1e-9:
+            return 1e-4 * (i + 1) + 3e-6 * (f - lo) * (-1) ** i
+    raise AssertionError(f"{f} Hz is in no band")
+
+
+def test_bands_tile_the_scan_grid():
+    """The bands' grids are the S3-S5 grid (49.8-95 Hz, 0.2 Hz), each point once."""
+    joined = np.concatenate([sc.band_grid(lo, hi) for lo, hi in sc.BANDS])
+    np.testing.assert_array_equal(joined, frequency_grid(49.8, 95.0, sc.F_STEP))
+
+
+@pytest.mark.parametrize("samples", [10, 14, 17, 20, 40])
+def test_samples_per_band_include_both_ends(samples):
+    """Every band is sampled at its ends, on the grid, and the count is the one asked for."""
+    got = sc.sample_frequencies(samples)
+    assert sum(len(s) for s in got) == samples
+    for (lo, hi), f_s in zip(sc.BANDS, got, strict=True):
+        assert f_s[0] == lo and f_s[-1] == hi and np.all(np.diff(f_s) > 0)
+        assert set(f_s) <= set(sc.band_grid(lo, hi))
+
+
+def test_prediction_is_exact_for_a_cost_linear_in_each_band():
+    """With c linear in each band the model is exact: n t sum c(f) over the full grid."""
+    calls = []
+
+    def timer(f, n, t):
+        calls.append((f, n, t))
+        return 0.25 + 0.01 * n + n * t * _band_linear_cost(f)  # set-up + per particle + c
+
+    res = sc.compute(SETTINGS, timer=timer)
+    assert len(calls) == 1 + 2 * SETTINGS["samples"] * SETTINGS["repeats"]  # warm-up + pairs
+    assert all(n == SETTINGS["n"] and t in (SETTINGS["t"], 2 * SETTINGS["t"]) for _, n, t in calls)
+    np.testing.assert_allclose(res["overhead_s"], 0.25 + 0.01 * SETTINGS["n"], rtol=1e-9)
+    grid = frequency_grid(49.8, 95.0, sc.F_STEP)
+    exact = sc.FULL_N * sc.FULL_T * sum(_band_linear_cost(f) for f in grid)
+    rows = res.meta["rows"]
+    assert rows[-1]["setting"] == "total"
+    assert rows[-1]["predicted_cpu_s"] == pytest.approx(exact, rel=1e-12)
+    for (lo, hi), row in zip(sc.BANDS, rows[:-1], strict=True):
+        want = sc.FULL_N * sc.FULL_T * sum(_band_linear_cost(f) for f in sc.band_grid(lo, hi))
+        assert row["predicted_cpu_s"] == pytest.approx(want, rel=1e-12)
+    # no timing noise and no interpolation miss: the error estimate is zero
+    assert res.meta["interp_rel_error"] == pytest.approx(0.0, abs=1e-12)
+    assert rows[-1]["error_cpu_s"] == pytest.approx(0.0, abs=1e-9 * exact)
+    assert math.fsum(r["share"] for r in rows[:-1]) == pytest.approx(1.0)
+
+
+def test_error_estimate_sees_curvature_and_timing_noise():
+    """A cost quadratic in f is missed by the linear model; leave-one-out and the repeats'
+    spread (a timer alternating +-10 %) both show up in the error estimate."""
+    noise = iter(np.tile([0.9, 1.0, 1.1], 100))  # runs of t exact, of 2 t off by -10, 0, +10 %
+
+    def timer(f, n, t):
+        factor = next(noise) if t == 2 * SETTINGS["t"] else 1.0
+        return n * t * 1e-4 * (1.0 + 0.01 * (f - 70.0) ** 2) * factor
+
+    res = sc.compute(SETTINGS, timer=timer)
+    samples = sc.sample_frequencies(SETTINGS["samples"])
+    costs = [1e-4 * (1.0 + 0.01 * (f - 70.0) ** 2) for f in samples]  # medians: exact
+    loo = sc.loo_rel_errors(samples, costs)
+    assert np.all(loo > 0)  # chords of a convex function lie above it
+    assert res.meta["interp_rel_error"] == pytest.approx(np.sqrt(np.mean(loo**2)))
+    grid = frequency_grid(49.8, 95.0, sc.F_STEP)
+    exact = sc.FULL_N * sc.FULL_T * 1e-4 * float(np.sum(1.0 + 0.01 * (grid - 70.0) ** 2))
+    total = res.meta["rows"][-1]
+    assert total["predicted_cpu_s"] > exact  # linear interpolation of a convex cost
+    assert abs(total["predicted_cpu_s"] - exact) <= total["error_cpu_s"]
+    band_rel = [r["error_cpu_s"] / r["predicted_cpu_s"] for r in res.meta["rows"][:-1]]
+    # differences 2 t c (0.9, 1, 1.1) - t c = (0.8, 1, 1.2) t c: spread 0.4 of the median
+    assert min(band_rel) >= 0.4 * (1 - 1e-9)  # the repeats' spread is included
+
+
+def test_too_few_samples_is_refused():
+    with pytest.raises(ValueError, match="samples must be >= 10"):
+        sc.sample_frequencies(9)
