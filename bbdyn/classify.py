@@ -205,6 +205,7 @@ def trajectory_features(
     thresholds: Thresholds | None = None,
     threads: int | None = None,
     on_failure: str = "keep",
+    progress=None,
 ) -> FeatureResult:
     """Per-trajectory features after a transient, computed on the fly.
 
@@ -236,6 +237,8 @@ def trajectory_features(
         Trajectories the kernel fails on: kept out of every attractor (label -2 in
         ``classify_features``, counted in ``meta["n_failed"]``, with a warning), or raise
         ``SimulationError`` (``bbdyn.ensemble.failed_particles``).
+    progress : callable, optional
+        Told the fraction of the simulated time done (``bbdyn.ensemble.run_chunked``).
 
     Returns
     -------
@@ -291,7 +294,7 @@ def trajectory_features(
 
     start = time.perf_counter()
     with numba_threads(threads):
-        run_chunked(advance, carry, out["status"], end[0])
+        run_chunked(advance, carry, out["status"], end[0], progress=progress)
     wall = time.perf_counter() - start
     failures = failed_particles(out["status"], ics, on_failure)
     del out["counts"]
@@ -672,6 +675,7 @@ def classify(
     thresholds: Thresholds | None = None,
     threads: int | None = None,
     on_failure: str = "keep",
+    progress=None,
 ) -> Classification:
     """Classify the dynamics at ``params``: ``trajectory_features`` then ``classify_features``.
 
@@ -684,7 +688,7 @@ def classify(
     feat = trajectory_features(
         params, t=t, n=n, seed=seed, boxes=boxes, initial=initial, start_phase=start_phase,
         transient=transient, blocks=blocks, thresholds=thresholds, threads=threads,
-        on_failure=on_failure,
+        on_failure=on_failure, progress=progress,
     )  # fmt: skip
     out = classify_features(feat, thresholds)
     out.meta["summary"]["feature_wall_s"] = feat.meta["wall_s"]

@@ -203,6 +203,8 @@ def diffusion_point(
     A: float | None = None,
     alpha: float | None = None,
     beta: float | None = None,
+    R: float | None = None,
+    d: float | None = None,
 ) -> dict[str, float | np.ndarray]:
     """D and the steady-state energies of the reference ensemble at one frequency.
 
@@ -224,7 +226,7 @@ def diffusion_point(
         Particles rerun for the energy stationarity check (``min(check, n)``; 0: skip).
     n_boot : int
         Bootstrap resamples of D.
-    A, alpha, beta : float, optional
+    A, alpha, beta, R, d : float, optional
         Other parameters (default parameters (docs/model.md) if None).
 
     Returns
@@ -245,7 +247,8 @@ def diffusion_point(
     """
     from bbdyn.ensemble import ensemble
 
-    changes = {k: v for k, v in (("A", A), ("alpha", alpha), ("beta", beta)) if v is not None}
+    given = (("A", A), ("alpha", alpha), ("beta", beta), ("R", R), ("d", d))
+    changes = {k: v for k, v in given if v is not None}
     params = Params(f=f, **changes)
     n = _check_point_arguments(params, n, t, transient, n_samples, check)
     ic_seed, boot_seed = seed_sequence.spawn(2)
@@ -348,6 +351,16 @@ def _energy_drift(params: Params, res, seed, m: int, t: float, window) -> dict[s
     return out
 
 
+def _model_changes(model: dict) -> dict[str, float]:
+    """The entries of ``model`` that differ from the ``Params`` defaults (ValueError for a
+    name ``diffusion_point`` does not take)."""
+    defaults = Params(f=1.0).to_dict()
+    unknown = sorted(set(model) - {"A", "alpha", "beta", "R", "d"})
+    if unknown:
+        raise ValueError(f"model takes A, alpha, beta, R, d; got {', '.join(unknown)}")
+    return {k: float(v) for k, v in model.items() if float(v) != defaults[k]}
+
+
 def frequency_scan(
     frequencies,
     *,
@@ -360,8 +373,13 @@ def frequency_scan(
     workers: int | None = None,
     scheduler=None,
     progress=True,
+    model: dict | None = None,
 ):
     """Run ``diffusion_point`` over ``frequencies`` with ``bbdyn.scan.run_scan``.
+
+    ``model`` sets parameters other than f (``A``, ``alpha``, ``beta``, ``R``, ``d``);
+    only those that differ from the ``Params`` defaults become arguments of the scan, so
+    a scan at the defaults is the same scan with or without them.
 
     The arguments are checked at every frequency, and the scan's size (``check_scan_size``),
     before anything is written.  Every finished frequency is stored in ``out_dir`` at once;
@@ -370,11 +388,12 @@ def frequency_scan(
     from bbdyn.scan import run_scan
 
     freqs = [float(f) for f in frequencies]
+    changes = _model_changes(model or {})
     if freqs:  # run_scan names an empty or non-finite list
         check_scan_size(min(freqs), max(freqs), len(freqs), n=n, t=t, transient=transient)
         for f in freqs:
-            _check_point_arguments(Params(f=f), n, t, transient, N_SAMPLES, 0)
-    kwargs = {"n": int(n), "t": float(t)}
+            _check_point_arguments(Params(f=f, **changes), n, t, transient, N_SAMPLES, 0)
+    kwargs = {"n": int(n), "t": float(t), **changes}
     if transient is not None:
         kwargs["transient"] = float(transient)
     compute = functools.partial(diffusion_point, **kwargs)

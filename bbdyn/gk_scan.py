@@ -44,6 +44,7 @@ def gk_run(
     n_boot: int = 1000,
     transient: float | None = None,
     threads: int | None = None,
+    progress=None,
 ):
     """Simulate the reference ensemble and evaluate every approximation of docs/model.md §4.
 
@@ -65,6 +66,8 @@ def gk_run(
         Bootstrap resamples.
     threads : int, optional
         numba threads of the ensemble run (results do not depend on it).
+    progress : callable, optional
+        Told the fraction of the simulated time done (``bbdyn.ensemble.ensemble``).
 
     Returns
     -------
@@ -103,6 +106,7 @@ def gk_run(
             threads=threads,
             observables=("displacement", "energy", "jumps"),
             jump_capacity=capacity,
+            progress=progress,
         )
 
     res = run(int(math.ceil(JUMPS_PER_S_GUESS * t)) + 16)

@@ -27,7 +27,7 @@ import pytest
 ERROR, RESULT = "error", "result"
 
 SIM = ["--n", "4", "--t", "1"]  # tiny runs: a case costs well under a second
-CL = ["classify", "85.2", "--n", "4", "--t", "2"]
+CL = ["classify", "--f", "85.2", "--n", "4", "--t", "2"]
 BENCH = ["bench", "flat", "--quick", "--impacts", "2", "--long-run", "50"]  # a valid small run
 GK_F1 = repr(math.sqrt(9800.0 / 0.1) / (2 * math.pi))  # Gamma = 1 exactly, at the defaults
 
@@ -124,11 +124,11 @@ CASES: list[tuple[str, list[str], str]] = [
     ("tongues-text", ["tongues", "--kmax", "2"], RESULT),
     # ---- classify
     ("classify-f-missing", ["classify", "--n", "4", "--t", "2"], ERROR),
-    ("classify-f-negative", ["classify", "-1", "--n", "4", "--t", "2"], ERROR),
-    ("classify-f-nan", ["classify", "nan", "--n", "4", "--t", "2"], ERROR),
-    ("classify-n-0", ["classify", "85.2", "--n", "0", "--t", "2"], ERROR),
-    ("classify-n-1", ["classify", "85.2", "--n", "1", "--t", "2"], ERROR),
-    ("classify-t-zero", ["classify", "85.2", "--n", "4", "--t", "0"], ERROR),
+    ("classify-f-negative", ["classify", "--f", "-1", "--n", "4", "--t", "2"], ERROR),
+    ("classify-f-nan", ["classify", "--f", "nan", "--n", "4", "--t", "2"], ERROR),
+    ("classify-n-0", ["classify", "--f", "85.2", "--n", "0", "--t", "2"], ERROR),
+    ("classify-n-1", ["classify", "--f", "85.2", "--n", "1", "--t", "2"], ERROR),
+    ("classify-t-zero", ["classify", "--f", "85.2", "--n", "4", "--t", "0"], ERROR),
     ("classify-seed-negative", [*CL, "--seed", "-1"], ERROR),
     ("classify-transient-beyond-t", [*CL, "--transient", "5"], ERROR),
     ("classify-box-word", [*CL, "--box", "huge"], ERROR),
@@ -144,7 +144,7 @@ CASES: list[tuple[str, list[str], str]] = [
     ("classify-R-nan", [*CL, "--R", "nan"], ERROR),
     ("classify-plot-missing-folder", [*CL, "--plot", "{tmp}/no/x.png"], ERROR),
     ("classify-plot-under-file", [*CL, "--plot", "/dev/null/x.png"], ERROR),
-    ("classify-gamma-below-1", ["classify", "45", "--n", "4", "--t", "2", "--json"], RESULT),
+    ("classify-gamma-below-1", ["classify", "--f", "45", "--n", "4", "--t", "2", "--json"], RESULT),
     # ---- bench
     ("bench-no-target", ["bench"], ERROR),
     ("bench-bad-target", ["bench", "nosuch"], ERROR),

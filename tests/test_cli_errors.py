@@ -94,7 +94,7 @@ def test_unwritable_path_in_an_existing_folder(capsys):
 
 def test_classify_plot_into_a_missing_folder_is_refused_before_the_run(tmp_path, capsys):
     png = tmp_path / "no" / "x.png"
-    argv = ["classify", "85.2", "--n", "4", "--t", "2", "--plot", str(png)]
+    argv = ["classify", "--f", "85.2", "--n", "4", "--t", "2", "--plot", str(png)]
     assert run_main(argv) == 2
     assert f"folder {png.parent} does not exist" in short_message(capsys.readouterr().err)[0]
 

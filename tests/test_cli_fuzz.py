@@ -138,7 +138,7 @@ def command_lines(draw, command: str) -> list[str]:
         bad = set()
     argv = [command]
     if command == "classify":
-        argv.append(draw(F[1] if "f" in bad or draw(st.integers(0, 9)) == 0 else F[0]))
+        argv += ["--f", draw(F[1] if "f" in bad or draw(st.integers(0, 9)) == 0 else F[0])]
     for name in names:
         good, wrong = spec[name]
         if good is None:
@@ -226,12 +226,12 @@ def test_tongues(argv):
 
 @FUZZ
 @given(command_lines("classify"))
-@example(["classify", "85.2", "--n", "4", "--t", "2", "--R", "1"])
-@example(["classify", "85.2", "--n", "4", "--t", "2", "--R", "1e300"])
-@example(["classify", "85.2", "--n", "1", "--t", "2"])
-@example(["classify", "85.2", "--n", "4", "--t", "2", "--plot", "{tmp}/no/x.png"])
-@example(["classify", "85.2", "--n", "4", "--t", "2", "--plot", "/dev/null/x.png"])
-@example(["classify", "45", "--n", "4", "--t", "2", "--json"])
+@example(["classify", "--f", "85.2", "--n", "4", "--t", "2", "--R", "1"])
+@example(["classify", "--f", "85.2", "--n", "4", "--t", "2", "--R", "1e300"])
+@example(["classify", "--f", "85.2", "--n", "1", "--t", "2"])
+@example(["classify", "--f", "85.2", "--n", "4", "--t", "2", "--plot", "{tmp}/no/x.png"])
+@example(["classify", "--f", "85.2", "--n", "4", "--t", "2", "--plot", "/dev/null/x.png"])
+@example(["classify", "--f", "45", "--n", "4", "--t", "2", "--json"])
 def test_classify(argv):
     check(argv)
 

@@ -9,14 +9,17 @@ import pytest
 
 from bbdyn import Params, cli
 
-OWN = ("simulate", "gk", "tongues", "bench", "classify")
+OWN = ("simulate", "gk", "tongues", "bench", "classify", "lyapunov", "scan", "doublings")
 #: a minimal valid command line of each command (for the parsed defaults)
 MINIMAL = {
     "simulate": ["--f", "60"],
     "gk": ["--f", "60"],
     "tongues": [],
     "bench": ["flat"],
-    "classify": ["60"],
+    "classify": ["--f", "60"],
+    "lyapunov": ["--f", "60"],
+    "scan": ["--out", "x"],
+    "doublings": [],
 }
 DOCUMENTS = re.compile(r"(MODEL|SCENES|STYLE)\.md")
 

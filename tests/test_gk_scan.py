@@ -86,7 +86,7 @@ def _strict_json(text):
 def test_gk_command_json(f, capsys):
     assert main(["gk", "--f", str(f), "--n", "20", "--t", "10", "--nmax", "3", "--json"]) == 0
     out = _strict_json(capsys.readouterr().out)
-    for key in ("tau", "D_rw", "D_a", "r", "D", "D_err", "p_f", "p_b", "D_a_reason"):
+    for key in ("tau", "D_rw", "D_a", "r", "D", "D_se", "p_f", "p_b", "D_a_reason"):
         assert key in out
     assert len(out["D_n"]) == len(out["D_n_err"]) == 4
     assert out["params"]["f"] == f and out["nmax"] == 3

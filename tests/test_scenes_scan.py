@@ -76,7 +76,7 @@ def test_bbdyn_scan_json(tmp_path, capsys):
     assert main(argv + ["--out", str(tmp_path / "s"), "--json", "--workers", "1"]) == 0
     out = json.loads(capsys.readouterr().out)
     assert [p["f"] for p in out["points"]] == [85.0, 86.0]
-    assert all("D_err" in p for p in out["points"])
+    assert all("D_se" in p for p in out["points"])
     # a second call refuses the existing folder unless --resume, which recomputes nothing
     with pytest.raises(SystemExit):
         main(argv + ["--out", str(tmp_path / "s")])

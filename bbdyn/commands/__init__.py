@@ -5,6 +5,11 @@ names the option (``argument --n: n must be an integer >= 2 ...``) and nothing h
 run yet; output paths are checked the same way (an existing, writable folder; no
 folder is created) and every saved file is reported.  ``PARAM_DEFAULTS`` are the
 defaults of ``bbdyn.Params``, shown by ``--help``.
+
+Every command takes the model parameters the same way (``add_model_arguments``,
+``params_from``), prints the same JSON key with the same unit for the same quantity
+(``UNITS``, ``units_of``) and shows the progress of a long single run on a terminal
+(``run_progress``).
 """
 
 from __future__ import annotations
@@ -14,10 +19,12 @@ import dataclasses
 import math
 import os
 import sys
+import time
 from collections.abc import Callable
 from pathlib import Path
 
 from bbdyn.params import Params
+from bbdyn.progress import Progress, progress_stream
 
 #: Defaults of the fields of ``bbdyn.Params`` (f has none).
 PARAM_DEFAULTS = {
@@ -171,3 +178,103 @@ def add_save_argument(parser) -> None:
 def param_help(name: str, meaning: str) -> str:
     """Help text of a model parameter option with its ``Params`` default."""
     return f"{meaning} (default: {PARAM_DEFAULTS[name]:g})"
+
+
+# ---- model parameters: one way for every command -------------------------------------------
+#: Meaning and unit of each model parameter option (``--f``, ``--A``, ...), as in ``Params``.
+MODEL_MEANINGS = {
+    "f": "driving frequency in Hz",
+    "A": "floor amplitude in mm",
+    "alpha": "normal restitution, in [0, 1]",
+    "beta": "tangential restitution, in [0, 1]",
+    "R": "scatterer radius in mm, > d/2 (1e9 is nearly flat)",
+    "d": "scatterer width in mm",
+    "g": "gravity in mm/s^2",
+}
+#: The model options of a command that runs the billiard.
+BILLIARD_OPTIONS = ("f", "A", "alpha", "beta", "R", "d")
+#: The model options of a command of the flat bouncing ball (no scatterers, no sliding).
+FLAT_OPTIONS = ("f", "A", "alpha", "g")
+
+
+def add_model_arguments(parser, names=BILLIARD_OPTIONS, *, f_required: bool = True) -> None:
+    """Add the model parameter options ``names`` (``--f`` required unless ``f_required`` is
+    False, the others with their ``Params`` default shown by ``--help``) in one group."""
+    group = parser.add_argument_group("model parameters (docs/model.md)")
+    for name in names:
+        if name == "f":
+            meaning = MODEL_MEANINGS["f"] + ("" if f_required else " (no default: required)")
+            group.add_argument("--f", type=finite, required=f_required, help=meaning)
+        else:
+            group.add_argument(
+                f"--{name}", type=finite, default=PARAM_DEFAULTS[name],
+                help=param_help(name, MODEL_MEANINGS[name]),
+            )  # fmt: skip
+
+
+def model_values(args) -> dict:
+    """The model parameters set by ``add_model_arguments`` in ``args``, as ``{name: value}``."""
+    return {name: getattr(args, name) for name in MODEL_MEANINGS if hasattr(args, name)}
+
+
+def params_from(args) -> Params:
+    """``Params`` from the model options of ``args`` (a bad value: ValueError naming it)."""
+    return Params(**model_values(args))
+
+
+# ---- the JSON output: the same key and unit for the same quantity --------------------------
+#: Units of the numbers in the commands' JSON output.  A key's standard error ``KEY_se``
+#: (over particles) and bootstrap error ``KEY_err`` share its unit; fractions, counts,
+#: ``gamma`` and the restitutions are dimensionless.
+UNITS = {
+    "f": "Hz", "A": "mm", "g": "mm/s^2", "R": "mm", "d": "mm",
+    "t": "s", "transient": "s", "wall_s": "s", "feature_wall_s": "s", "tau": "s",
+    "D": "mm^2/s", "D_rw": "mm^2/s", "D_a": "mm^2/s", "D_n": "mm^2/s",
+    "E": "kg mm^2/s^2", "E_kin": "kg mm^2/s^2", "E_x": "kg mm^2/s^2", "E_y": "kg mm^2/s^2",
+    "E_pot": "kg mm^2/s^2", "E_reference": "kg mm^2/s^2",
+    "collisions_per_particle_per_s": "1/s", "jumps_per_particle_per_s": "1/s",
+    "jumps_per_s": "1/s", "collision_rate": "1/s", "jump_rate": "1/s",
+    "lam1_per_s": "1/s", "lam2_per_s": "1/s", "cond_lam1_per_s": "1/s", "cond_lam2_per_s": "1/s",
+}  # fmt: skip
+
+
+def units_of(out: dict) -> dict:
+    """The ``units`` entry of a JSON output: the unit of each key of ``out`` (and of its
+    ``params``) that has one."""
+    keys = set(out) | set(out.get("params", {}))
+    return {k: unit for k, unit in UNITS.items() if k in keys}
+
+
+# ---- progress of a single run ----------------------------------------------------------------
+class RunProgress(Progress):
+    """One progress line for one run: per cent of the simulated time done, simulated
+    seconds per wall-clock second and the time left (``update_fraction`` takes the
+    fraction in [0, 1], as the ``progress=`` callback of ``bbdyn.ensemble.ensemble``)."""
+
+    STEPS = 1000
+
+    def __init__(self, label: str, t: float, stream):
+        self.t = float(t)
+        super().__init__(self.STEPS, label=label, stream=stream)
+
+    def update_fraction(self, fraction: float) -> None:
+        """Redraw at ``fraction`` (in [0, 1]) of the simulated time."""
+        self.update(round(min(max(fraction, 0.0), 1.0) * self.STEPS) - self.done)
+
+    def line(self) -> str:
+        """E.g. ``simulate: 42% | 3.1 s/s | 1m04s left``."""
+        fraction = self.done / self.total
+        text = f"{self.label}: {100 * fraction:.0f}%"
+        elapsed = time.monotonic() - self._t0
+        if fraction > 0 and elapsed > 0:
+            left = elapsed * (1 - fraction) / fraction
+            text += f" | {fraction * self.t / elapsed:.3g} s/s | {duration(left)} left"
+        else:
+            text += " | - s/s | - left"
+        return text
+
+
+def run_progress(label: str, t: float, json_mode: bool) -> RunProgress:
+    """The progress line of a run of ``t`` simulated seconds: on stderr when stderr is a
+    terminal, silent with ``--json`` or when stderr is not a terminal."""
+    return RunProgress(label, t, None if json_mode else progress_stream(True))

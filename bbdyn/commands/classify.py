@@ -1,19 +1,35 @@
-"""`bbdyn classify F [--n N --t T --seed S --box ...] [--json] [--plot PNG]`: one frequency.
+"""`bbdyn classify --f F [--A --alpha --beta --R --d] [--n N --t T --seed S --box ...] [--json]`.
 
 Runs ``bbdyn.classify.classify`` and prints the verdict and its evidence: the
 regime (docs/model.md, section 5), ergodicity with its numbers, and each attractor with
 its basin fraction, locking, period, stuck fraction, jump rate, its Einstein D (the
 estimator of ``bbdyn simulate`` over the attractor's particles, with D in successive
-windows) and its energies (kg mm^2/s^2).
+windows) and its energies (kg mm^2/s^2).  Progress is shown on stderr when it is a
+terminal (not with --json).  ``bbdyn classify F`` (the frequency as a positional
+argument) still works but is deprecated: use ``--f F`` as every other command.
+
+JSON keys: ``version``, ``params`` (f Hz, A mm, g mm/s^2, alpha, beta, R mm, d mm),
+``gamma``, ``seed``, ``n``, ``t``, ``transient`` (s), ``boxes``; ``regime``,
+``regime_meaning``, ``reason``, ``ergodic``, ``ergodicity``; ``attractors`` (each with
+``fraction``, ``D``, ``D_se`` in mm^2/s, ``D_windows``, energies ``E``, ``E_x``, ``E_y``,
+``E_pot`` with ``_se`` in kg mm^2/s^2, ``jump_rate`` 1/s, ...); ``E_reference``;
+``unsettled_fraction``, ``failed_fraction``, ``failures``; ``thresholds``; ``wall_s`` (s);
+``units`` (the unit of each dimensioned key, here and in the attractors).
 """
 
+import argparse
+import sys
+
 from bbdyn.commands import (
-    PARAM_DEFAULTS,
     add_ensemble_arguments,
+    add_model_arguments,
     finite,
+    jsonable,
     output_file,
-    param_help,
+    params_from,
     report_written,
+    run_progress,
+    units_of,
 )
 
 HELP = "classify the dynamics at one frequency: attractors, basins, ergodicity, regime"
@@ -23,7 +39,10 @@ BOX_NAMES = ("ref", "high")
 
 
 def add_arguments(parser) -> None:
-    parser.add_argument("f", type=finite, help="driving frequency (Hz)")
+    add_model_arguments(parser, f_required=False)  # --f or the deprecated positional F
+    parser.add_argument(  # deprecated alias of --f
+        "f_positional", nargs="?", type=finite, default=None, metavar="F", help=argparse.SUPPRESS
+    )
     add_ensemble_arguments(parser, t=50.0, n_meaning="particles per box")
     parser.add_argument(
         "--transient", type=finite, default=None, help="discarded time (s; default: t/2)"
@@ -37,13 +56,24 @@ def add_arguments(parser) -> None:
         "'s0,s1,vx0,vx1,vy0,vy1'; repeat for several boxes (default: ref)",
     )
     parser.add_argument(
-        "--R", type=finite, default=PARAM_DEFAULTS["R"],
-        help=param_help("R", "scatterer radius in mm; 1e9 is flat"),
-    )  # fmt: skip
-    parser.add_argument(
         "--plot", type=output_file, default=None, metavar="PNG",
         help="draw S6/S7/S8-style panels into PNG, in an existing folder (default: no plot)",
     )  # fmt: skip
+
+
+def use_positional_frequency(args) -> None:
+    """Accept the deprecated ``bbdyn classify F``: set ``args.f`` from it, with a note on
+    stderr; refuse it together with ``--f`` or no frequency at all."""
+    given = args.f_positional
+    if given is None:
+        if args.f is None:
+            raise ValueError("the following arguments are required: --f")
+        return
+    if args.f is not None:
+        raise ValueError(f"give the frequency once: --f {args.f:g} or the deprecated {given:g}")
+    print(f"bbdyn classify: note: 'classify {given:g}' is deprecated, write "
+          f"'classify --f {given:g}'", file=sys.stderr)  # fmt: skip
+    args.f = given
 
 
 def parse_box(text: str, params):
@@ -67,19 +97,22 @@ def classify_summary(args):
     """Run the classifier described by ``args``; returns ``(summary dict, Classification)``."""
     import time
 
-    from bbdyn import Params, __version__
+    from bbdyn import __version__
     from bbdyn.classify import classify
 
-    params = Params(f=args.f, R=args.R)
+    params = params_from(args)
     boxes = [parse_box(b, params) for b in (args.box or ["ref"])]
     start = time.perf_counter()
+    bar = run_progress("classify", args.t, args.json)
     res = classify(
         params, t=args.t, n=args.n, seed=args.seed, boxes=boxes, transient=args.transient,
-        threads=args.threads,
+        threads=args.threads, progress=bar.update_fraction,
     )  # fmt: skip
+    bar.close()
     out = {"version": __version__, "params": params.to_dict(), "boxes": [vars(b) for b in boxes]}
     out.update(res.summary)
     out["wall_s"] = time.perf_counter() - start
+    out["units"] = {**units_of(out), **res.summary["units"]}
     return out, res
 
 
@@ -123,12 +156,13 @@ def plot_attractors(res, path) -> None:
 def run(args) -> int:
     import json
 
+    use_positional_frequency(args)
     out, res = classify_summary(args)
     if args.plot:
         plot_attractors(res, args.plot)
         report_written(f"plot: {args.plot}", args.json)
     if args.json:
-        print(json.dumps(out, indent=2, default=float))
+        print(json.dumps(jsonable(out), indent=2, default=float))
         return 0
     e = out["ergodicity"]
     print(f"bbdyn {out['version']}  f = {out['f']} Hz (Gamma = {out['gamma']:.4f})  n = {out['n']}"

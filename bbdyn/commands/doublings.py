@@ -1,6 +1,6 @@
 """`bbdyn doublings --alpha 0.5 --kmax 3 --levels 8 [--json]`: period-doubling cascades."""
 
-from bbdyn.commands import finite, integer_in, jsonable
+from bbdyn.commands import add_model_arguments, integer_in, jsonable
 
 HELP = (
     "period-doubling cascades of the k/1 orbits of the flat ball: Gamma of each doubling "
@@ -14,10 +14,7 @@ KMAX_MAX = 20
 
 
 def add_arguments(parser) -> None:
-    parser.add_argument(
-        "--alpha", type=finite, default=0.5,
-        help="normal restitution, in (0, 1) (default: %(default)s)",
-    )  # fmt: skip
+    add_model_arguments(parser, ("alpha",))  # the cascades in Gamma depend on alpha only
     parser.add_argument(
         "--kmax", type=integer_in("kmax", 1, KMAX_MAX), default=3,
         help="cascades of the k/1 orbits for k = 1..kmax (default: %(default)s)",

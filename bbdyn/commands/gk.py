@@ -1,4 +1,4 @@
-"""`bbdyn gk --f F [--nmax 10 --n N --t T --seed S] [--json]`: random walk and Green-Kubo.
+"""`bbdyn gk --f F [--A --alpha --beta --R --d] [--nmax 10 --n N --t T --seed S] [--json]`.
 
 Runs the reference ensemble at one frequency (``bbdyn.gk_scan.gk_run``) and prints
 the escape time tau, ``D_rw``, the measured ``r = E_y / E_x`` and ``D_a`` with it,
@@ -6,16 +6,28 @@ the truncated Green-Kubo ``D_n`` (n = 0..nmax) with bootstrap errors, the Einste
 D with its standard error, and ``p_f``, ``p_b`` (docs/model.md, section 4).  When no
 particle changes trap after the transient the run is reported as trapped (regime
 (a)): D_n = 0, tau infinite.  In the JSON output undefined numbers (NaN, and
-tau = r = inf when nothing jumped or moved sideways) are ``null``.
+tau = r = inf when nothing jumped or moved sideways) are ``null``.  Progress is shown
+on stderr when it is a terminal (not with --json).
+
+JSON keys: ``version``, ``params`` (f Hz, A mm, g mm/s^2, alpha, beta, R mm, d mm),
+``gamma``, ``seed``, ``n``, ``t``, ``transient`` (s), ``nmax``; ``D``, ``D_se`` (Einstein,
+standard error over particles; mm^2/s, the keys of ``bbdyn simulate``); ``tau``,
+``tau_err`` (s); ``D_rw``, ``D_a``, ``D_n`` with bootstrap errors ``_err`` (mm^2/s);
+``r``, ``r_err``; ``p_f``, ``p_b`` (``_err``); ``fraction_long``; ``jumps_per_s`` (1/s);
+``E``, ``E_x``, ``E_y`` (kg mm^2/s^2); ``D_a_reason``, ``n_jumps``, ``trapped``;
+``wall_s`` (s); ``units``.
 """
 
 from bbdyn.commands import (
     add_ensemble_arguments,
+    add_model_arguments,
     add_save_argument,
-    finite,
     integer_in,
     jsonable,
+    params_from,
+    run_progress,
     save_result,
+    units_of,
 )
 
 HELP = "random-walk and truncated Green-Kubo approximations of D at one frequency"
@@ -30,7 +42,7 @@ nmax_type = integer_in(
 
 
 def add_arguments(parser) -> None:
-    parser.add_argument("--f", type=finite, required=True, help="driving frequency (Hz)")
+    add_model_arguments(parser)
     parser.add_argument(
         "--nmax", type=nmax_type, default=10, help="highest order n of D_n (default: %(default)s)"
     )
@@ -50,23 +62,29 @@ def trapped_reason(n_jumps: int, gamma: float) -> str:
 
 def gk_summary(args) -> dict:
     """Run ``gk_run`` as described by ``args``; the printed quantities as a JSON-ready dict."""
-    from bbdyn import Params, __version__
+    from bbdyn import __version__
     from bbdyn.gk_scan import gk_numbers, gk_run
 
-    params = Params(f=args.f)
-    gk = gk_run(params, n=args.n, t=args.t, nmax=args.nmax, seed=args.seed, threads=args.threads)
+    params = params_from(args)
+    bar = run_progress("gk", args.t, args.json)
+    gk = gk_run(
+        params, n=args.n, t=args.t, nmax=args.nmax, seed=args.seed, threads=args.threads,
+        progress=bar.update_fraction,
+    )  # fmt: skip
+    bar.close()
     if args.save:
         save_result(gk, args.save, args.json)
     numbers = gk_numbers(gk)
-    out = {"version": __version__, "params": params.to_dict(), "seed": args.seed}
-    out.update(n=args.n, t=args.t, transient=gk.meta["transient"], nmax=args.nmax)
+    out = {"version": __version__, "params": params.to_dict(), "gamma": params.gamma}
+    out.update(seed=args.seed, n=args.n, t=args.t, transient=gk.meta["transient"], nmax=args.nmax)
     for key, value in numbers.items():
         out[key] = value.tolist() if hasattr(value, "tolist") else value
+    out["D_se"] = out.pop("D_err")  # a standard error over particles, as in bbdyn simulate
     out["D_a_reason"] = gk.meta["D_a_reason"]
     out["n_jumps"] = gk.meta["n_jumps"]
-    out["gamma"] = params.gamma
     out["trapped"] = trapped_reason(out["n_jumps"], params.gamma)
     out["wall_s"] = gk.meta["sim_wall_s"] + gk.meta["gk_wall_s"]
+    out["units"] = units_of(out)
     return out
 
 
@@ -97,7 +115,7 @@ def run(args) -> int:
     print(f"  D_a            = {out['D_a_reason'] if math.isnan(out['D_a']) else d_a}")
     p_f, p_b = fmt(out["p_f"], out["p_f_err"]), fmt(out["p_b"], out["p_b_err"])
     print(f"  p_f, p_b       = {p_f}, {p_b}")
-    print(f"  Einstein D     = {fmt(out['D'], out['D_err'])} mm^2/s")
+    print(f"  Einstein D     = {fmt(out['D'], out['D_se'])} mm^2/s")
     print("  n   D_n (mm^2/s)")
     for k, (d_n, err) in enumerate(zip(out["D_n"], out["D_n_err"], strict=True)):
         print(f"  {k:<3} {fmt(d_n, err)}")

@@ -1,13 +1,27 @@
-"""`bbdyn lyapunov --f F [--n N --t T --seed S --alpha A] [--json]`: Lyapunov exponents.
+"""`bbdyn lyapunov --f F [--A --alpha --g] [--n N --t T --seed S] [--json]`: Lyapunov exponents.
 
 Runs ``bbdyn.lyapunov.flat_lyapunov`` (the flat ball: the billiard's tangent
 dynamics is not implemented yet, docs/lyapunov.md) and prints both exponents
 per second and per impact with their standard errors over the particles, the
 conditional exponents (growth between sticks), the stuck fraction and the
 largest exponent of each time window (convergence check).
+
+JSON keys: ``model`` ("flat"), ``params`` (f Hz, A mm, g mm/s^2, alpha; beta, R, d
+unused by the flat ball), ``f``, ``gamma``, ``n``, ``t`` (s); ``lam1_per_s``,
+``lam2_per_s`` and ``cond_...`` (1/s), ``..._per_impact`` (per impact), each with ``_se``;
+``stuck_fraction``; ``window_cond_lam1_per_s`` (1/s); ``wall_s`` (s); ``units``.
 """
 
-from bbdyn.commands import PARAM_DEFAULTS, finite, integer_in, jsonable, param_help, seed
+from bbdyn.commands import (
+    FLAT_OPTIONS,
+    add_model_arguments,
+    finite,
+    integer_in,
+    jsonable,
+    params_from,
+    seed,
+    units_of,
+)
 
 HELP = "Lyapunov exponents of the flat ball (tangent dynamics through impacts and sticks)"
 
@@ -17,7 +31,7 @@ windows_type = integer_in("windows", 1, 1000, "the run is split into this many w
 
 
 def add_arguments(parser) -> None:
-    parser.add_argument("--f", type=finite, required=True, help="driving frequency (Hz)")
+    add_model_arguments(parser, FLAT_OPTIONS)
     parser.add_argument("--n", type=n_type, default=20, help="particles (default: 20)")
     parser.add_argument(
         "--t", type=finite, default=20.0, help="measured time in s (default: %(default)g)"
@@ -31,29 +45,25 @@ def add_arguments(parser) -> None:
         help="windows of the convergence check (default: %(default)s)",
     )  # fmt: skip
     parser.add_argument("--seed", type=seed, default=0, help="random seed (default: 0)")
-    for name, meaning in (("alpha", "normal restitution"), ("A", "amplitude in mm"),
-                          ("g", "gravity in mm/s^2")):  # fmt: skip
-        parser.add_argument(
-            f"--{name}", type=finite, default=PARAM_DEFAULTS[name], help=param_help(name, meaning)
-        )
     parser.add_argument("--json", action="store_true", help="print one JSON object")
 
 
 def lyapunov_summary(args) -> dict:
     """Run the flat-ball exponents for ``args``; the summary dict with the window exponents."""
-    from bbdyn import Params
     from bbdyn.lyapunov import flat_lyapunov
 
-    params = Params(f=args.f, alpha=args.alpha, A=args.A, g=args.g)
+    params = params_from(args)
     res = flat_lyapunov(
         params, args.n, t=args.t, transient=args.transient, windows=args.windows, seed=args.seed
     )
-    out = {"model": "flat", "f": args.f, "gamma": params.gamma, "n": args.n, "t": args.t}
+    out = {"model": "flat", "params": params.to_dict(), "f": args.f, "gamma": params.gamma}
+    out.update(n=args.n, t=args.t)
     out.update(res.summary())
     out["window_cond_lam1_per_s"] = [float(x) for x in res.window_exponents()]
     if out["stuck_fraction"] > 0:
         out["note"] = "exponents -inf (null in JSON): a particle stuck, which forgets its state"
     out["wall_s"] = res.meta["wall_s"]
+    out["units"] = units_of(out)
     return out
 
 

@@ -3,30 +3,89 @@
 Runs ``bbdyn.frequency_scan.diffusion_point`` at every frequency of the grid with
 ``bbdyn.scan.run_scan``: each finished frequency is stored at once in ``DIR``;
 ``--resume`` finishes an interrupted scan.  Prints one line per frequency (D with
-its standard error, E, E_x, flags) or, with ``--json``, one JSON object.
+its standard error, E, E_x, flags) or, with ``--json``, one JSON object.  The model
+parameters other than f are options as in every command (``--A --alpha --beta --R --d``).
+
+JSON keys: ``out``, ``params`` (A mm, g mm/s^2, alpha, beta, R mm, d mm; f is scanned),
+``cpu_s`` (s), ``units`` and ``points``, one object per frequency with ``f`` (Hz),
+``gamma``, ``D``, ``D_se`` (mm^2/s, the keys of ``bbdyn simulate``), ``D_converged``,
+``E``, ``E_se``, ``E_x``, ``E_x_se``, ``E_reference`` (kg mm^2/s^2),
+``energy_stationary``, ``stuck_fraction``, ``collision_rate`` (per particle per s),
+``trapped``.
 """
+
+from bbdyn.commands import (
+    BILLIARD_OPTIONS,
+    PARAM_DEFAULTS,
+    add_model_arguments,
+    finite,
+    model_values,
+    particles,
+    seed,
+    units_of,
+)
 
 HELP = "scan D(f), E(f), E_x(f) over a frequency grid (resumable, parallel; docs/diffusion.md)"
 
 
 def add_arguments(parser) -> None:
-    parser.add_argument("--f-start", type=float, default=49.8, help="first frequency (Hz)")
-    parser.add_argument("--f-stop", type=float, default=95.0, help="last frequency (Hz)")
-    parser.add_argument("--f-step", type=float, default=0.2, help="frequency step (Hz)")
-    parser.add_argument("--n", type=int, default=1000, help="particles per frequency (1000)")
-    parser.add_argument("--t", type=float, default=200.0, help="simulated time in s (200)")
     parser.add_argument(
-        "--transient", type=float, default=None, help="time before energy averages (s; t/5)"
+        "--f-start", type=finite, default=49.8, help="first frequency in Hz (default: %(default)s)"
     )
-    parser.add_argument("--seed", type=int, default=0, help="scan seed (default: 0)")
+    parser.add_argument(
+        "--f-stop", type=finite, default=95.0, help="last frequency in Hz (default: %(default)s)"
+    )
+    parser.add_argument(
+        "--f-step", type=finite, default=0.2, help="frequency step in Hz (default: %(default)s)"
+    )
+    add_model_arguments(parser, BILLIARD_OPTIONS[1:])  # f is scanned
+    parser.add_argument(
+        "--n", type=particles, default=1000, help="particles per frequency (default: 1000)"
+    )
+    parser.add_argument(
+        "--t", type=float, default=200.0, help="simulated time in s (default: 200)"
+    )
+    parser.add_argument(
+        "--transient",
+        type=finite,
+        default=None,
+        help="time before energy averages (s; default: t/5)",
+    )
+    parser.add_argument("--seed", type=seed, default=0, help="scan seed (default: 0)")
     parser.add_argument("--out", required=True, help="scan folder")
     parser.add_argument("--resume", action="store_true", help="finish the scan already in --out")
-    parser.add_argument("--workers", type=int, default=None, help="local processes (all cores)")
-    parser.add_argument("--scheduler", default=None, help="dask.distributed scheduler address")
+    parser.add_argument(
+        "--workers", type=int, default=None, help="local processes (default: all cores)"
+    )
+    parser.add_argument(
+        "--scheduler",
+        default=None,
+        help="dask.distributed scheduler address (default: none, local processes)",
+    )
     parser.add_argument("--json", action="store_true", help="print one JSON object")
     parser.add_argument(
         "--progress", default=None, help="write progress lines to this file (default: stderr)"
     )
+
+
+#: The numbers of a scan point in the JSON output, and the keys renamed there so that the
+#: same quantity has the key of ``bbdyn simulate`` (standard errors over particles: ``_se``).
+POINT_KEYS = (
+    "gamma",
+    "D",
+    "D_err",
+    "D_converged",
+    "E",
+    "E_err",
+    "E_x",
+    "E_x_err",
+    "E_reference",
+    "energy_stationary",
+    "stuck_fraction",
+    "collision_rate",
+    "trapped",
+)
+JSON_KEYS = {"D_err": "D_se", "E_err": "E_se", "E_x_err": "E_x_se"}
 
 
 def _show_warning(message, category, filename, lineno, file=None, line=None) -> None:
@@ -64,6 +123,7 @@ def run(args) -> int:
                 workers=args.workers,
                 scheduler=args.scheduler,
                 progress=log if log else True,
+                model=model_values(args),
             )
     except FileExistsError:
         raise ValueError(
@@ -75,15 +135,16 @@ def run(args) -> int:
     finally:
         if log:
             log.close()
-    keys = ["gamma", "D", "D_err", "D_converged", "E", "E_err", "E_x", "E_x_err", "E_reference"]
-    keys += ["energy_stationary", "stuck_fraction", "collision_rate", "trapped"]
     if args.json:
         rows = [
-            {"f": float(f), **{k: scan[k][i].item() for k in keys}}
+            {"f": float(f), **{JSON_KEYS.get(k, k): scan[k][i].item() for k in POINT_KEYS}}
             for i, f in enumerate(scan.values)
         ]
         wall = sum(p["wall_s"] for p in scan.meta["points"])
-        json.dump({"out": args.out, "cpu_s": wall, "points": rows}, sys.stdout, indent=2)
+        params = {**model_values(args), "g": PARAM_DEFAULTS["g"]}  # g is not an option here
+        out = {"out": args.out, "params": params, "cpu_s": wall}
+        units = units_of({**out, **rows[0]} if rows else out)
+        json.dump({**out, "units": {**units, "cpu_s": "s"}, "points": rows}, sys.stdout, indent=2)
         print()
         return 0
     print(f"{'f (Hz)':>8} {'D (mm^2/s)':>20} {'E':>18} {'E_x':>16} {'A^2w^2/2':>9}  flags")

@@ -1,49 +1,52 @@
-"""`bbdyn simulate --f F [--n N] [--t T] [--seed S] [--threads K] [--json]`: one ensemble run.
+"""`bbdyn simulate --f F [--A --alpha --beta --R --d] [--n N --t T --seed S] [--json]`: one run.
 
 Prints the Einstein D with its standard error (late-window MSD slope), the
 period-averaged energies, the stuck fraction and the collision rate of the
 reference ensemble (docs/model.md, section 3), with the parameters, seed, version
-and wall time.
+and wall time.  Progress is shown on stderr when it is a terminal (not with --json).
+
+JSON keys: ``version``, ``params`` (f Hz, A mm, g mm/s^2, alpha, beta, R mm, d mm),
+``gamma``, ``seed``, ``n``, ``t``, ``transient`` (s), ``threads``; ``n_ok``,
+``n_failed``, ``failures``; ``D``, ``D_se`` (mm^2/s); ``E``, ``E_x``, ``E_y``,
+``E_pot``, ``E_reference`` with ``_se`` (kg mm^2/s^2); ``stuck_fraction``(``_se``);
+``collisions_per_particle_per_s``, ``jumps_per_particle_per_s`` (1/s); ``D_windows``
+(``t_centre`` s, ``D``, ``D_se``); ``collisions``; ``wall_s`` (s); ``units`` (the unit of
+each dimensioned key).
 """
 
 from bbdyn.commands import (
-    PARAM_DEFAULTS,
     add_ensemble_arguments,
+    add_model_arguments,
     add_save_argument,
     finite,
     jsonable,
-    param_help,
+    params_from,
+    run_progress,
     save_result,
+    units_of,
 )
 
 HELP = "run the reference ensemble at one frequency and print D, energies, stuck fraction"
 
 
 def add_arguments(parser) -> None:
-    parser.add_argument("--f", type=finite, required=True, help="driving frequency (Hz)")
+    add_model_arguments(parser)
     add_ensemble_arguments(parser, t=200.0)
     parser.add_argument(
         "--transient", type=finite, default=None, help="time discarded before averages "
         "(s; default: t/5)"
     )  # fmt: skip
-    for name, meaning in (
-        ("A", "amplitude (mm)"),
-        ("alpha", "normal restitution"),
-        ("beta", "tangential restitution"),
-    ):
-        parser.add_argument(
-            f"--{name}", type=finite, default=PARAM_DEFAULTS[name], help=param_help(name, meaning)
-        )
     add_save_argument(parser)
 
 
 def simulate_summary(args) -> dict:
     """Run the ensemble described by ``args`` and return the printed quantities."""
-    from bbdyn import Params, __version__
+    from bbdyn import __version__
     from bbdyn.diffusion import einstein_D_windows
     from bbdyn.ensemble import ensemble
 
-    params = Params(f=args.f, A=args.A, alpha=args.alpha, beta=args.beta)
+    params = params_from(args)
+    bar = run_progress("simulate", args.t, args.json)
     res = ensemble(
         params,
         n=args.n,
@@ -52,16 +55,20 @@ def simulate_summary(args) -> dict:
         transient=args.transient,
         threads=args.threads,
         observables=("displacement", "energy"),
+        progress=bar.update_fraction,
     )
+    bar.close()
     if args.save:
         save_result(res, args.save, args.json)
-    out = {"version": __version__, "params": params.to_dict(), "seed": args.seed}
-    out.update(n=args.n, t=args.t, transient=res.meta["transient"], threads=res.meta["threads"])
+    out = {"version": __version__, "params": params.to_dict(), "gamma": params.gamma}
+    out.update(seed=args.seed, n=args.n, t=args.t, transient=res.meta["transient"])
+    out["threads"] = res.meta["threads"]
     out.update(res.summary())
     centres, D_w, se_w = einstein_D_windows(res["sample_times"], res["displacement"][res.ok])
     out["D_windows"] = {"t_centre": centres.tolist(), "D": D_w.tolist(), "D_se": se_w.tolist()}
     out["collisions"] = int(res["collisions"].sum())
     out["wall_s"] = res.meta["wall_s"]
+    out["units"] = units_of(out)
     return out
 
 

@@ -1,6 +1,6 @@
 """`bbdyn tongues --alpha 0.5 --kmax 3 [--A 0.1 --g 9800] [--json]`: k/1 tongue edges."""
 
-from bbdyn.commands import PARAM_DEFAULTS, duration, finite, integer_in, jsonable, param_help
+from bbdyn.commands import add_model_arguments, duration, integer_in, jsonable
 
 HELP = "k/1 Arnold tongue edges of the flat ball: closed form and from the exact map's multipliers"
 
@@ -16,18 +16,9 @@ kmax_type = integer_in(
 
 
 def add_arguments(parser) -> None:
-    parser.add_argument(
-        "--alpha", type=finite, default=PARAM_DEFAULTS["alpha"],
-        help=param_help("alpha", "normal restitution"),
-    )  # fmt: skip
+    add_model_arguments(parser, ("A", "alpha", "g"))  # the flat ball's, without f
     parser.add_argument(
         "--kmax", type=kmax_type, default=3, help="largest k (default: %(default)s)"
-    )
-    parser.add_argument(
-        "--A", type=finite, default=PARAM_DEFAULTS["A"], help=param_help("A", "amplitude in mm")
-    )
-    parser.add_argument(
-        "--g", type=finite, default=PARAM_DEFAULTS["g"], help=param_help("g", "gravity in mm/s^2")
     )
     parser.add_argument("--json", action="store_true", help="print a JSON list, one object per k")
     parser.add_argument(
