@@ -1,4 +1,10 @@
-"""`bbdyn doublings --alpha 0.5 --kmax 3 --levels 8 [--json]`: period-doubling cascades."""
+"""`bbdyn doublings [--alpha 0.5] [--kmax 3] [--levels 8] [--json]`: period-doubling cascades.
+
+The cascades in Gamma (dimensionless) depend on alpha only, so ``--alpha`` is the one
+model option (``add_model_arguments``).  JSON: a list, one object per k, with ``k``,
+``status``, ``reason``, ``gamma_doublings`` (Gamma of each doubling) and
+``feigenbaum_ratios``.
+"""
 
 from bbdyn.commands import add_model_arguments, integer_in, jsonable
 

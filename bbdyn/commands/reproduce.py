@@ -1,6 +1,8 @@
 """``bbdyn reproduce [--quick|--medium|--full] [--out DIR] [--only ID ...]`` and
 ``bbdyn reproduce --docs [--only ID ...]``: scenes with an index page, or the figures of docs/."""
 
+from bbdyn.commands import seed
+
 HELP = "run every available scene and write figures, their data and an index page to a folder"
 
 
@@ -37,7 +39,7 @@ def add_arguments(parser) -> None:
     parser.add_argument(
         "--out", help="output folder (default: out; not with --docs, which writes docs/figures)"
     )
-    parser.add_argument("--seed", type=int, default=0, help="random seed (default: 0)")
+    parser.add_argument("--seed", type=seed, default=0, help="random seed (default: 0)")
     parser.add_argument(
         "--only", nargs="*", metavar="ID", help="only these scene ids (at least one)"
     )

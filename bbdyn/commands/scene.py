@@ -1,6 +1,8 @@
 """`bbdyn scene ID [--quick|--medium|--full] [--out DIR]`: draw one scene, save its numbers."""
 
-HELP = "compute and draw one scene (S1-S10, B1, B3), saving its numbers beside the figure"
+from bbdyn.commands import seed
+
+HELP = "compute and draw one scene (S1-S10, B1, B3-B6), saving its numbers beside the figure"
 
 
 def add_arguments(parser) -> None:
@@ -29,7 +31,7 @@ def add_arguments(parser) -> None:
     )
     parser.set_defaults(setting="quick")
     parser.add_argument("--out", default="out", help="output folder (default: out)")
-    parser.add_argument("--seed", type=int, default=0, help="random seed (default: 0)")
+    parser.add_argument("--seed", type=seed, default=0, help="random seed (default: 0)")
 
 
 def run(args) -> int:

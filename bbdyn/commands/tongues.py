@@ -1,4 +1,10 @@
-"""`bbdyn tongues --alpha 0.5 --kmax 3 [--A 0.1 --g 9800] [--json]`: k/1 tongue edges."""
+"""`bbdyn tongues [--A 0.1 --alpha 0.5 --g 9800] [--kmax 3] [--closed-form] [--json]`: k/1 tongues.
+
+The model options are those of every flat-ball command (``add_model_arguments``).
+JSON: a list, one object per k, with ``k``, ``gamma_lo``, ``gamma_hi`` (Gamma = A w^2 / g,
+dimensionless; closed form), ``gamma_lo_numeric``, ``gamma_hi_numeric`` (from the exact
+map's multipliers; null with --closed-form or at alpha = 0), ``f_lo_hz``, ``f_hi_hz`` (Hz).
+"""
 
 from bbdyn.commands import add_model_arguments, duration, integer_in, jsonable
 
