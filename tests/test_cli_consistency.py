@@ -163,7 +163,7 @@ def test_progress_line_states_fraction_rate_and_time_left():
     bar = RunProgress("simulate", 200.0, out)
     bar._t0 -= 10.0  # ten seconds ago
     bar.update_fraction(0.25)  # 50 simulated s in 10 s: 5 s/s, 30 s left
-    assert bar.line() == "simulate: 25% | 5 s/s | 30 s left"
+    assert bar.line() == "simulate: 25% | 5 s simulated per s | 30 s left"
 
 
 # ---- python -m bbdyn ------------------------------------------------------------------------

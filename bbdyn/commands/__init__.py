@@ -262,15 +262,15 @@ class RunProgress(Progress):
         self.update(round(min(max(fraction, 0.0), 1.0) * self.STEPS) - self.done)
 
     def line(self) -> str:
-        """E.g. ``simulate: 42% | 3.1 s/s | 1m04s left``."""
+        """E.g. ``simulate: 42% | 3.1 s simulated per s | 1.1 min left``."""
         fraction = self.done / self.total
         text = f"{self.label}: {100 * fraction:.0f}%"
         elapsed = time.monotonic() - self._t0
         if fraction > 0 and elapsed > 0:
-            left = elapsed * (1 - fraction) / fraction
-            text += f" | {fraction * self.t / elapsed:.3g} s/s | {duration(left)} left"
+            left = duration(elapsed * (1 - fraction) / fraction)
+            text += f" | {fraction * self.t / elapsed:.3g} s simulated per s | {left} left"
         else:
-            text += " | - s/s | - left"
+            text += " | - s simulated per s | - left"
         return text
 
 
