@@ -140,7 +140,8 @@ def verdict(test: dict[str, float], units: str = "") -> str:
     unit = f" {units}" if units else ""
     if test["p"] < P_STRUCTURE:
         rms = math.sqrt(max(test["S2"], 0.0))
-        return f"structure (p = {test['p']:.2g}); rms increment {rms:.3g}{unit}"
+        p = f"p = {test['p']:.2g}" if test["p"] > 0 else "p < 1e-300"  # below double range
+        return f"structure ({p}); rms increment {rms:.3g}{unit}"
     bound = math.sqrt(max(test["S2"] + Z_RESOLVED * test["S2_err"], 0.0))
     return (
         f"not resolved at this precision (p = {test['p']:.2g}); "

@@ -34,7 +34,7 @@ TITLE = "Fine structure of D(f): nested grids around chosen frequencies, scaling
 _STEPS = (0.2, 0.05, 0.01, 0.002)
 QUICK = {"centres": (85.2,), "steps": _STEPS, "points": 7, "n": 50, "t": 5.0}
 #: The setting measured for docs/fine_structure.md (fits in 15 min of 2 shared cores).
-MEDIUM = {"centres": (85.2,), "steps": _STEPS, "points": 11, "n": 10000, "t": 20.0}
+MEDIUM = {"centres": (85.2,), "steps": _STEPS, "points": 21, "n": 15000, "t": 20.0}
 #: One point per regime band (docs/classification.md) and 85.2 Hz; see the budget in
 #: docs/fine_structure.md.
 FULL = {"centres": (58.0, 70.0, 85.2, 89.0), "steps": _STEPS, "points": 21, "n": 40000,
@@ -175,10 +175,14 @@ def key_numbers(result: Result) -> dict:
     for centre in result["centres"]:
         found = [r for r in rows if r["centre"] == centre and r["p"] < fs.P_STRUCTURE]
         rest = [r for r in rows if r["centre"] == centre and r["p"] >= fs.P_STRUCTURE]
+        parts = [
+            f"{words} at steps {_steps_text(group)} Hz"
+            for words, group in (("structure", found), ("not resolved", rest))
+            if group
+        ]
         key[f"{centre:g} Hz conclusion"] = (
-            f"structure at steps {_steps_text(found)} Hz; not resolved at steps "
-            f"{_steps_text(rest)} Hz (p < {fs.P_STRUCTURE:g} counts as structure)"
-        )
+            f"{'; '.join(parts)} (p < {fs.P_STRUCTURE:g} counts as structure)"
+        )  # fmt: skip
     for c, centre in enumerate(result["centres"]):
         h, err, used = (float(result[k][c]) for k in ("H", "H_err", "H_levels"))
         key[f"{centre:g} Hz exponent H (S2 ~ step^2H)"] = (
@@ -197,7 +201,7 @@ def key_numbers(result: Result) -> dict:
 
 
 def _steps_text(rows: list[dict]) -> str:
-    return ", ".join(f"{r['step']:g}" for r in rows) or "none"
+    return ", ".join(f"{r['step']:g}" for r in rows)
 
 
 def precision_cost(result: Result) -> float:
