@@ -15,31 +15,55 @@ Gap.  After an event at phase theta and ``xi0``, with ``tau`` the time since it,
     G(tau) = vyrel tau - g tau^2/2 - rise(tau) - [b(xi(tau)) - b(xi0)]      (mm)
 
 with ``xi(tau) = xi0 + vx tau`` shifted by -+d at each tile crossing (crossing
-times are analytic).  Within one tile ``-G'' = g + A w^2 sin(.) + b'' vx^2
-<= g + A w^2 = M`` because ``b'' < 0``: the flat ball's Taylor lower bound
-``G(tau + s) >= G + G' s - M s^2/2`` holds up to the next crossing.  At a
-crossing ``G`` is continuous but ``G'`` drops by ``d |vx| / c0`` (the wedge is a
-valley: a concave kink), so a step is capped at the crossing and the bound
-restarted there with the right derivative.  The floor is never above
-``y_p + h``, so the *envelope gap* ``G_env = G - (h - b(xi))`` (the floor
-replaced by the plane ``y_p + h``) is a lower bound of ``G`` whose second
-derivative is also bounded by M and which has no kinks: its safe steps may
+times are analytic).  At a crossing ``G`` is continuous but ``G'`` drops by
+``d |vx| / c0`` (the wedge is a valley: a concave kink), so a step is capped at
+the crossing and the bound restarted there with the right derivative.  The
+floor is never above ``y_p + h``, so the *envelope gap* ``G_env = G - (h -
+b(xi))`` (the floor replaced by the plane ``y_p + h``, i.e. the flat ball's gap
+minus a constant) is a lower bound of ``G`` with no kinks: its safe steps may
 jump over many tiles.  Each step is the larger of the envelope step and the
-tile step capped at the crossing.  The interval in which the particle is
-above ``A + h`` (the floor's highest point ever) is skipped analytically.
+tile step capped at the crossing.  The interval in which the particle is above
+``A + h`` (the floor's highest point ever) is skipped analytically.
+
+Safe steps (the lower bound).  Within one tile segment ``G`` is smooth and
+
+    -G''(tau) = g + A w^2 sin(theta + w tau) + b''(xi) vx^2 <= g + A w^2 sin(theta + w tau)
+
+because the arc is a cap (``b'' < 0``, so ``b'' vx^2 <= 0``); for ``G_env`` the
+same holds with equality (no arc term), on every tile.  The right side is at most
+``M = g + A w^2`` and changes at most at the rate ``K = A w^3``, so from a point
+``tau_a`` with ``m = g + A w^2 sin(theta + w tau_a)`` (the sine comes free from
+the gap's evaluation; ``m`` is padded by a few ulp of M for rounding)
+``-G''(tau_a + u) <= min(M, m + K u)``.  Integrating twice from ``tau_a``,
+
+    G(tau_a + s) >= G + G' s - m s^2/2 - K s^3/6   and   G(tau_a + s) >= G + G' s - M s^2/2
+
+up to the next tile crossing (for ``G_env``: for every s), with ``G, G'`` the
+values at ``tau_a`` (right derivative after a crossing).  ``cubic_safe_step``
+(``flat.py``) returns an ``s`` before which one of these lower bounds stays
+positive, never shorter than the quadratic step with M.  A tile step is capped
+at the crossing, where the bound is restarted; an envelope step needs no cap.
 
 Guarantee: every step ends at a time before which a lower bound of ``G`` is
 positive, so the first contact is never skipped, whatever the number of tiles
 crossed; the search stops when the tile step is below ``ROOT_STEP_REL`` times
 the flight time (the contact time is then known to a few ulp) or when rounding
-makes ``G <= 0``.
+makes ``G <= 0``.  Near a transversal contact the cubic step converges cubically
+from below (``flat.py``), so flights whose quadratic steps crawl (``m << M``:
+the floor accelerating downward, the 50 Hz chatter hops) need few steps.
 """
 
 import math
 
 from numba import njit
 
-from bbdyn.core.flat import flat_flight_evals, flat_gap, safe_step, stick_release
+from bbdyn.core.flat import (
+    cubic_safe_step,
+    flat_flight_evals,
+    flat_gap_phase,
+    safe_step,
+    stick_release,
+)
 from bbdyn.core.floor import arc_root, bounce, floor_drop
 from bbdyn.core.plate import advance_phase, release_window
 from bbdyn.core.status import (
@@ -54,6 +78,7 @@ from bbdyn.core.status import (
 from bbdyn.core.tolerances import (
     CHATTER_REL_TOL,
     DEPARTURE_REL_TOL,
+    EPS,
     ROOT_MAX_STEPS,
     ROOT_STEP_REL,
     WEDGE_MAX_REFLECTIONS,
@@ -85,6 +110,25 @@ def tile_offset(xi0, vx, tau, d):
 
 
 @njit(cache=True, inline="always")
+def segment_gap_phase(tau, k, phase_sin, phase_cos, xi0, S0, vx, vyrel, kp):
+    """``segment_gap`` and the sine and cosine of the phase reached at ``tau``.
+
+    Returns ``(G, G', G_env, F', xi, sin, cos)``; the phase's sine and cosine come
+    free from the gap's own evaluation (``flat_gap_phase``) and give the local
+    curvature bound ``g + A w^2 sin`` of the cubic safe step.
+    """
+    half = 0.5 * kp.d
+    F, Fp, sn, cn = flat_gap_phase(vyrel, kp.g, kp.A, kp.w, phase_sin, phase_cos, tau)
+    dx = vx * tau - k * kp.d
+    xi = min(max(xi0 + dx, -half), half)
+    S = arc_root(xi, kp)
+    G = F + floor_drop(dx, xi0, xi, S0, S)
+    Gp = Fp + vx * xi / S
+    G_env = F - xi0 * xi0 / (kp.R + S0)  # h - b(xi0) = xi0^2 / (R + S0)
+    return G, Gp, G_env, Fp, xi, sn, cn
+
+
+@njit(cache=True, inline="always")
 def segment_gap(tau, k, phase_sin, phase_cos, xi0, S0, vx, vyrel, kp):
     """Gap and rates at ``tau`` with the particle over tile offset ``k``.
 
@@ -93,14 +137,9 @@ def segment_gap(tau, k, phase_sin, phase_cos, xi0, S0, vx, vyrel, kp):
     its derivative ``F' = vyrel - g tau - dvel(tau)`` (also the vertical velocity
     relative to the floor) and the local coordinate reached (clamped to the tile).
     """
-    half = 0.5 * kp.d
-    F, Fp = flat_gap(vyrel, kp.g, kp.A, kp.w, phase_sin, phase_cos, tau)
-    dx = vx * tau - k * kp.d
-    xi = min(max(xi0 + dx, -half), half)
-    S = arc_root(xi, kp)
-    G = F + floor_drop(dx, xi0, xi, S0, S)
-    Gp = Fp + vx * xi / S
-    G_env = F - xi0 * xi0 / (kp.R + S0)  # h - b(xi0) = xi0^2 / (R + S0)
+    G, Gp, G_env, Fp, xi, _, _ = segment_gap_phase(
+        tau, k, phase_sin, phase_cos, xi0, S0, vx, vyrel, kp
+    )
     return G, Gp, G_env, Fp, xi
 
 
@@ -143,8 +182,15 @@ def tangent_departure(sn, xi0, S0, vx, tc, kp):
     return 0.0
 
 
+@njit(cache=True, inline="always")
+def flight_step(G, Gp, m, M, K, cubic):
+    """Safe step (s) from a gap ``G >= 0`` with rate ``Gp``: cubic (``-G'' <= m + K s``,
+    ``cubic_safe_step``) or quadratic (``-G'' <= M``, ``safe_step``)."""
+    return cubic_safe_step(G, Gp, m, M, K) if cubic else safe_step(G, Gp, M)
+
+
 @njit(cache=True)
-def billiard_flight(phase, xi0, vx, vyrel, kp):
+def billiard_flight_rule(phase, xi0, vx, vyrel, kp, cubic):
     """First contact with the floor after an event (see the module docstring).
 
     Parameters
@@ -157,6 +203,10 @@ def billiard_flight(phase, xi0, vx, vyrel, kp):
         tangent (``V . n = 0``) inside the release window where the floor
         accelerates downward faster than g.
     kp : KernelParams
+    cubic : bool
+        True: cubic safe steps with the local curvature bound (``billiard_flight``);
+        False: quadratic steps with the global bound M (the previous rule, kept for
+        the tests and benchmarks that compare the two).
 
     Returns
     -------
@@ -174,6 +224,9 @@ def billiard_flight(phase, xi0, vx, vyrel, kp):
         ``OK``, ``BAD_STATE`` or ``ROOT_NOT_CONVERGED``.
     """
     d, R, w, g, M = kp.d, kp.R, kp.w, kp.g, kp.curv_bound
+    aw2 = kp.A * w * w
+    K = aw2 * w  # |d/dtau (g + A w^2 sin)| <= A w^3
+    m_pad = 4.0 * EPS * M  # rounding allowance keeping g + A w^2 sin an upper bound
     half = 0.5 * d
     k_base = 0.0
     # A particle on a wedge moving away from its tile starts on the neighbour.
@@ -190,6 +243,7 @@ def billiard_flight(phase, xi0, vx, vyrel, kp):
 
     tau = 0.0
     k = 0.0
+    sn_t = sn  # sine of the phase reached at tau
     G = 0.0
     Gp = vyrel + vx * xi0 / S0  # = R V.n / S0
     lift = xi0 * xi0 / (R + S0)  # h - b(xi0)
@@ -200,7 +254,11 @@ def billiard_flight(phase, xi0, vx, vyrel, kp):
 
     if abs(Gp) <= DEPARTURE_REL_TOL * (abs(vyrel) + abs(vx * xi0) / S0):
         Gp = 0.0  # tangent departure (alpha = 0): rounding of V.n = 0 must not count
-    theta_r, theta_e = release_window(kp.gamma)
+    # Cheap superset of the release window sin(phase) < -1/Gamma before the asin.
+    if kp.gamma * sn < -1.0 + 1e-9:
+        theta_r, theta_e = release_window(kp.gamma)
+    else:
+        theta_r, theta_e = -1.0, -1.0
     if vx == 0.0 and theta_r < phase < theta_e:
         # Released inside the window (a stick there lasts zero time): the particle stays
         # over xi0, so G is the flat ball's gap.  Near theta_e its contact is of third order
@@ -216,14 +274,18 @@ def billiard_flight(phase, xi0, vx, vyrel, kp):
         tau = min((theta_e - phase) / w, tc)
         if tau == tc:
             k += direction
-        G, Gp, G_env, G_envp, xi = segment_gap(tau, k, sn, cs, xi0, S0, vx, vyrel, kp)
+        G, Gp, G_env, G_envp, xi, sn_t, _ = segment_gap_phase(
+            tau, k, sn, cs, xi0, S0, vx, vyrel, kp
+        )
     elif Gp == 0.0:
         tau = tangent_departure(sn, xi0, S0, vx, tc, kp)
         if tau == 0.0:
             return 0.0, k_base, xi0, vyrel, 0, BAD_STATE
         if tau == tc:
             k += direction
-        G, Gp, G_env, G_envp, xi = segment_gap(tau, k, sn, cs, xi0, S0, vx, vyrel, kp)
+        G, Gp, G_env, G_envp, xi, sn_t, _ = segment_gap_phase(
+            tau, k, sn, cs, xi0, S0, vx, vyrel, kp
+        )
     elif not Gp > 0.0:
         return 0.0, k_base, xi0, vyrel, 0, BAD_STATE
     tc = max(crossing_time(xi0, k, vx, d), tau)
@@ -242,14 +304,18 @@ def billiard_flight(phase, xi0, vx, vyrel, kp):
         if tau_up < tau < tau_down:
             tau = tau_down
             k = tile_offset(xi0, vx, tau, d)
-            G, Gp, G_env, G_envp, xi = segment_gap(tau, k, sn, cs, xi0, S0, vx, vyrel, kp)
+            G, Gp, G_env, G_envp, xi, sn_t, _ = segment_gap_phase(
+                tau, k, sn, cs, xi0, S0, vx, vyrel, kp
+            )
             tc = max(crossing_time(xi0, k, vx, d), tau)
         if G <= 0.0 and tau > 0.0:
             return tau, k + k_base, xi, G_envp, n, OK
-        s_tile = safe_step(G, Gp, M)
+        # -G'' <= m + K s ahead of tau (on the tile, and for the envelope everywhere)
+        m = g + aw2 * sn_t + m_pad
+        s_tile = flight_step(G, Gp, m, M, K, cubic)
         if s_tile <= ROOT_STEP_REL * tau:
             return tau, k + k_base, xi, G_envp, n, OK
-        s_env = safe_step(G_env, G_envp, M) if G_env > 0.0 else 0.0
+        s_env = flight_step(G_env, G_envp, m, M, K, cubic) if G_env > 0.0 else 0.0
         room = tc - tau
         if s_env > min(s_tile, room):
             tau += s_env
@@ -259,9 +325,20 @@ def billiard_flight(phase, xi0, vx, vyrel, kp):
             k += direction
         else:
             tau += s_tile
-        G, Gp, G_env, G_envp, xi = segment_gap(tau, k, sn, cs, xi0, S0, vx, vyrel, kp)
+        G, Gp, G_env, G_envp, xi, sn_t, _ = segment_gap_phase(
+            tau, k, sn, cs, xi0, S0, vx, vyrel, kp
+        )
         tc = max(crossing_time(xi0, k, vx, d), tau)
     return tau, k + k_base, xi, G_envp, ROOT_MAX_STEPS, ROOT_NOT_CONVERGED
+
+
+@njit(cache=True)
+def billiard_flight(phase, xi0, vx, vyrel, kp):
+    """First contact with the floor after an event: ``billiard_flight_rule`` with cubic steps.
+
+    Returns ``(tau, k, xi, vyrel_minus, n_steps, status)`` (see ``billiard_flight_rule``).
+    """
+    return billiard_flight_rule(phase, xi0, vx, vyrel, kp, True)
 
 
 @njit(cache=True, inline="always")
@@ -405,7 +482,7 @@ def collide(periods, phase, tile, xi, vx, vyrel, kp):
 
 
 @njit(cache=True)
-def billiard_event(periods, phase, tile, xi, vx, vyrel, kind, kp):
+def billiard_event_rule(periods, phase, tile, xi, vx, vyrel, kind, kp, cubic):
     """Advance the billiard from one event to the next (docs/model.md §2).
 
     Parameters
@@ -419,6 +496,8 @@ def billiard_event(periods, phase, tile, xi, vx, vyrel, kind, kp):
     kind : int
         IMPACT, STICK or RELEASE.
     kp : KernelParams
+    cubic : bool
+        Step rule of the first-contact search (``billiard_flight_rule``).
 
     Returns
     -------
@@ -432,7 +511,7 @@ def billiard_event(periods, phase, tile, xi, vx, vyrel, kind, kp):
     --------
     >>> from bbdyn import Params
     >>> kp = Params(f=58.0).kernel()
-    >>> ev = billiard_event(0.0, 0.0, 0.0, 0.3, 10.0, 50.0, IMPACT, kp)
+    >>> ev = billiard_event_rule(0.0, 0.0, 0.0, 0.3, 10.0, 50.0, IMPACT, kp, True)
     >>> ev[-1] == OK and ev[0] + ev[1] > 0.0
     True
     """
@@ -442,11 +521,20 @@ def billiard_event(periods, phase, tile, xi, vx, vyrel, kind, kp):
             return periods, phase, tile, xi, 0.0, 0.0, STICK, status
         return periods_r, phase_r, tile, xi, 0.0, 0.0, RELEASE, OK
 
-    tau, k, xi_c, vyrel_minus, _, status = billiard_flight(phase, xi, vx, vyrel, kp)
+    tau, k, xi_c, vyrel_minus, _, status = billiard_flight_rule(phase, xi, vx, vyrel, kp, cubic)
     if status != OK:
         return periods, phase, tile, xi, vx, vyrel, kind, status
     periods, phase = advance_phase(periods, phase, kp.w * tau)
     return collide(periods, phase, tile + k, xi_c, vx, vyrel_minus, kp)
+
+
+@njit(cache=True)
+def billiard_event(periods, phase, tile, xi, vx, vyrel, kind, kp):
+    """Advance the billiard from one event to the next: ``billiard_event_rule`` with cubic steps.
+
+    Returns ``(periods, phase, tile, xi, vx, vyrel, kind, status)`` of the next event.
+    """
+    return billiard_event_rule(periods, phase, tile, xi, vx, vyrel, kind, kp, True)
 
 
 @njit(cache=True)
