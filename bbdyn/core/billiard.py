@@ -47,10 +47,16 @@ at the crossing, where the bound is restarted; an envelope step needs no cap.
 Guarantee: every step ends at a time before which a lower bound of ``G`` is
 positive, so the first contact is never skipped, whatever the number of tiles
 crossed; the search stops when the tile step is below ``ROOT_STEP_REL`` times
-the flight time (the contact time is then known to a few ulp) or when rounding
-makes ``G <= 0``.  Near a transversal contact the cubic step converges cubically
-from below (``flat.py``), so flights whose quadratic steps crawl (``m << M``:
-the floor accelerating downward, the 50 Hz chatter hops) need few steps.
+the flight time (the contact time is then known to a few ulp), when rounding
+makes ``G <= 0``, or (cubic rule) when the *upper* Taylor bound is already
+negative ``ROOT_STEP_REL`` times the flight time after a tile step, still on the
+tile: with ``-G'' >= g + A w^2 sin - K u - R^2 vx^2 / c0^3`` (``-b''`` is
+largest at the wedges, ``S = c0``) the contact is then bracketed to that width
+and the step's end is returned without evaluating there (``F'`` from its Taylor
+series, remainder ``A w^4 s^3 / 6`` below eps ``|F'|``, as in ``flat.py``).
+Near a transversal contact the cubic step converges cubically from below
+(``flat.py``), so flights whose quadratic steps crawl (``m << M``: the floor
+accelerating downward, the 50 Hz chatter hops) need few steps.
 """
 
 import math
@@ -226,6 +232,8 @@ def billiard_flight_rule(phase, xi0, vx, vyrel, kp, cubic):
     d, R, w, g, M = kp.d, kp.R, kp.w, kp.g, kp.curv_bound
     aw2 = kp.A * w * w
     K = aw2 * w  # |d/dtau (g + A w^2 sin)| <= A w^3
+    L = K * w  # |d^2/dtau^2 (g + A w^2 sin)| <= A w^4
+    arc_curv = R * R * vx * vx / (kp.c0 * kp.c0 * kp.c0)  # max of -b'' vx^2 on a tile
     m_pad = 4.0 * EPS * M  # rounding allowance keeping g + A w^2 sin an upper bound
     half = 0.5 * d
     k_base = 0.0
@@ -243,7 +251,7 @@ def billiard_flight_rule(phase, xi0, vx, vyrel, kp, cubic):
 
     tau = 0.0
     k = 0.0
-    sn_t = sn  # sine of the phase reached at tau
+    sn_t, cn_t = sn, cs  # sine and cosine of the phase reached at tau
     G = 0.0
     Gp = vyrel + vx * xi0 / S0  # = R V.n / S0
     lift = xi0 * xi0 / (R + S0)  # h - b(xi0)
@@ -274,7 +282,7 @@ def billiard_flight_rule(phase, xi0, vx, vyrel, kp, cubic):
         tau = min((theta_e - phase) / w, tc)
         if tau == tc:
             k += direction
-        G, Gp, G_env, G_envp, xi, sn_t, _ = segment_gap_phase(
+        G, Gp, G_env, G_envp, xi, sn_t, cn_t = segment_gap_phase(
             tau, k, sn, cs, xi0, S0, vx, vyrel, kp
         )
     elif Gp == 0.0:
@@ -283,7 +291,7 @@ def billiard_flight_rule(phase, xi0, vx, vyrel, kp, cubic):
             return 0.0, k_base, xi0, vyrel, 0, BAD_STATE
         if tau == tc:
             k += direction
-        G, Gp, G_env, G_envp, xi, sn_t, _ = segment_gap_phase(
+        G, Gp, G_env, G_envp, xi, sn_t, cn_t = segment_gap_phase(
             tau, k, sn, cs, xi0, S0, vx, vyrel, kp
         )
     elif not Gp > 0.0:
@@ -304,7 +312,7 @@ def billiard_flight_rule(phase, xi0, vx, vyrel, kp, cubic):
         if tau_up < tau < tau_down:
             tau = tau_down
             k = tile_offset(xi0, vx, tau, d)
-            G, Gp, G_env, G_envp, xi, sn_t, _ = segment_gap_phase(
+            G, Gp, G_env, G_envp, xi, sn_t, cn_t = segment_gap_phase(
                 tau, k, sn, cs, xi0, S0, vx, vyrel, kp
             )
             tc = max(crossing_time(xi0, k, vx, d), tau)
@@ -324,8 +332,20 @@ def billiard_flight_rule(phase, xi0, vx, vyrel, kp, cubic):
             tau = tc
             k += direction
         else:
-            tau += s_tile
-        G, Gp, G_env, G_envp, xi, sn_t, _ = segment_gap_phase(
+            tau_next = tau + s_tile
+            # Upper Taylor bound (-G'' >= m_low - K u on the tile): negative just past the
+            # step, the contact lies within ROOT_STEP_REL tau_next after tau_next; F' there
+            # follows from its Taylor series (remainder <= A w^4 s^3 / 6, below eps F').
+            s_up = s_tile + ROOT_STEP_REL * tau_next
+            m_low = m - 2.0 * m_pad - arc_curv
+            upper = G + s_up * (Gp - s_up * (0.5 * m_low - s_up * (K / 6.0)))
+            bracketed = cubic and upper < 0.0 and s_up < room  # contact on this tile
+            if bracketed and L * s_tile**3 <= 6.0 * EPS * abs(G_envp):
+                Fp = G_envp - s_tile * (m - m_pad + 0.5 * s_tile * K * cn_t)
+                xi = min(max(xi0 + (vx * tau_next - k * d), -half), half)
+                return tau_next, k + k_base, xi, Fp, n + 1, OK
+            tau = tau_next
+        G, Gp, G_env, G_envp, xi, sn_t, cn_t = segment_gap_phase(
             tau, k, sn, cs, xi0, S0, vx, vyrel, kp
         )
         tc = max(crossing_time(xi0, k, vx, d), tau)
