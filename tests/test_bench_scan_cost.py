@@ -89,3 +89,9 @@ def test_error_estimate_sees_curvature_and_timing_noise():
 def test_too_few_samples_is_refused():
     with pytest.raises(ValueError, match="samples must be >= 10"):
         sc.sample_frequencies(9)
+
+
+def test_unknown_setting_is_refused():
+    """--impacts (n_impacts) means nothing to the cost model: refused, not ignored."""
+    with pytest.raises(ValueError, match="n_impacts"):
+        sc.compute({**SETTINGS, "n_impacts": 5}, timer=lambda f, n, t: 1.0)

@@ -150,6 +150,12 @@ def compute(
     ``repeats`` of each pair.  One untimed warm-up call first (numba compilation).
     """
     log = log or (lambda msg: None)
+    unknown = sorted(set(settings) - set(FULL))
+    if unknown:
+        raise ValueError(
+            f"scan-cost settings take {sorted(FULL)}, not {unknown} (--impacts and --long-run "
+            "apply to the flat and billiard targets): leave them out"
+        )
     wall = time.perf_counter()
     n, t, repeats = int(settings["n"]), float(settings["t"]), int(settings["repeats"])
     if n < 2 or not t > 0 or repeats < 1:
