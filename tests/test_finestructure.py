@@ -244,3 +244,24 @@ def test_doc_settings_are_the_scene_settings():
         centres = [f"{c:g}" for c in s["centres"]]
         assert all(c in line for c in centres), name
     assert f"({np.unique(b6.grid_points(b6.MEDIUM)[0]).size} scan points:" in text
+
+
+def test_doc_prose_matches_the_measured_conclusion():
+    """The prose under the table says: structure on every level, H well below 1."""
+    import json
+
+    from bbdyn.scenes import b6_fine_structure as b6
+
+    text = " ".join((DOCS / "fine_structure.md").read_text(encoding="utf-8").split())
+    meta = json.loads((DOCS / "figures" / "B6_medium.json").read_text())["meta"]
+    s, key = meta["settings"], meta["key_numbers"]
+    assert f"({(s['points'] - 1) * s['steps'][0]:g} Hz down to " in text
+    assert f" {(s['points'] - 1) * s['steps'][-1]:g} Hz wide)" in text
+    assert s == json.loads(json.dumps(b6.MEDIUM))
+    assert "not linear on any of the four" in text
+    assert "not resolved" not in key["85.2 Hz conclusion"]
+    assert "well below the H = 1" in text
+    h, err = map(
+        float, re.match(r"([\d.]+) \+- ([\d.]+)", key["85.2 Hz exponent H (S2 ~ step^2H)"]).groups()
+    )
+    assert h + 2 * err < 1
