@@ -171,3 +171,15 @@ def test_b3_key_numbers_in_diffusion_page_come_from_the_figure():
     stated = re.findall(r"^\* (f = [\d.]+ Hz): (.+)$", page, flags=re.M)
     assert stated, "no key numbers stated in the B3 section"
     assert dict(stated) == meta["key_numbers"]
+
+
+def test_full_scan_key_numbers_in_results_page_come_from_the_figures():
+    """The S3/S5 key numbers quoted in docs/results.md are those the committed figures recorded."""
+    import json
+
+    page = (ROOT / "docs" / "results.md").read_text(encoding="utf-8")
+    for name in ("S3_full", "S5_full"):
+        meta = json.loads((ROOT / "docs" / "figures" / f"{name}.json").read_text())["meta"]
+        for key, value in meta["key_numbers"].items():
+            if key.startswith(("D_max", "E_x max", "scan CPU")):
+                assert f"* {key}: {value}" in page, (name, key, value)
