@@ -32,6 +32,7 @@ import numpy as np
 
 from bbdyn.core.status import STUCK_FOREVER
 from bbdyn.params import Params
+from bbdyn.progress import rough_duration
 from bbdyn.results import Result, make_meta
 
 __all__ = [
@@ -79,13 +80,6 @@ def _bytes_text(nbytes: float) -> str:
         if nbytes >= size:
             return f"{nbytes / size:.3g} {unit}"
     return f"{nbytes:.3g} B"
-
-
-def _cpu_text(seconds: float) -> str:
-    for unit, size in (("years", 365.25 * 86400), ("days", 86400), ("h", 3600), ("min", 60)):
-        if seconds >= size:
-            return f"{seconds / size:.3g} {unit}"
-    return f"{seconds:.3g} s"
 
 
 def grid_size(f_start: float, f_stop: float, f_step: float) -> int:
@@ -164,7 +158,8 @@ def check_scan_size(
     disk = n_points * point_bytes(n_samples)
     said = (
         f"{n_points:.3g} frequencies in [{f_lo:g}, {f_hi:g}] Hz with n={n} particles for "
-        f"t={t:g} s take up to about {_cpu_text(cpu)} of CPU time and {_bytes_text(disk)} of disk"
+        f"t={t:g} s take up to about {rough_duration(cpu, 3)} of CPU time "
+        f"and {_bytes_text(disk)} of disk"
     )
     if n_points > MAX_POINTS:
         raise ValueError(

@@ -25,6 +25,14 @@ def progress_stream(progress: bool | TextIO) -> TextIO | None:
     return progress
 
 
+def rough_duration(seconds: float, digits: int = 2) -> str:
+    """A rough duration for estimates: ``"40 s"``, ``"3.2 hours"``, ``"12 years"``."""
+    for unit, size in (("years", 3.156e7), ("days", 86400.0), ("hours", 3600.0), ("min", 60.0)):
+        if seconds >= size:
+            return f"{seconds / size:.{digits}g} {unit}"
+    return f"{seconds:.{digits}g} s"
+
+
 def _duration(seconds: float) -> str:
     seconds = int(round(seconds))
     hours, rest = divmod(seconds, 3600)

@@ -25,6 +25,7 @@ from pathlib import Path
 
 from bbdyn.params import Params
 from bbdyn.progress import Progress, progress_stream
+from bbdyn.progress import rough_duration as duration
 
 #: Defaults of the fields of ``bbdyn.Params`` (f has none).
 PARAM_DEFAULTS = {
@@ -58,14 +59,6 @@ def integer_in(name: str, low: int, high: int | None = None, why="") -> Callable
         return value
 
     return parse
-
-
-def duration(seconds: float) -> str:
-    """A rough human-readable duration: ``"40 s"``, ``"3.2 hours"``, ``"12 years"``."""
-    for unit, size in (("years", 3.156e7), ("days", 86400.0), ("hours", 3600.0), ("min", 60.0)):
-        if seconds >= size:
-            return f"{seconds / size:.2g} {unit}"
-    return f"{seconds:.2g} s"
 
 
 def particles(text: str) -> int:
