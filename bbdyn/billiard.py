@@ -25,27 +25,30 @@ import numpy as np
 from bbdyn.core.billiard import billiard_run
 from bbdyn.core.floor import arc_coordinates, xi_from_arc_length
 from bbdyn.core.status import IMPACT, RELEASE, STATUS_MESSAGES, STICK, raise_for_status
-from bbdyn.params import Params
+from bbdyn.params import Params, check_params
 from bbdyn.results import Result, make_meta
 
-__all__ = ["BilliardTrajectory", "simulate", "state_from_section", "check_params"]
+__all__ = [
+    "BilliardTrajectory",
+    "floor_profile",
+    "simulate",
+    "state_from_section",
+    "xi_at_arc_length",
+]
 
 _KINDS = (IMPACT, STICK, RELEASE)
 
 
-def check_params(params: Params) -> None:
-    """Refuse parameters the billiard kernel does not model.
+def floor_profile(params: Params, xi) -> tuple[np.ndarray, np.ndarray]:
+    """Arc length s from the left wedge and height b (mm) of the static floor at the local
+    coordinates ``xi`` (mm, in [-d/2, d/2]; 0 is the arc top): docs/model.md §2."""
+    xi = np.ascontiguousarray(xi, dtype=np.float64)
+    return arc_coordinates(xi, params.kernel())
 
-    ``beta = 1`` with ``alpha < 1``: chattering then ends in sliding along the
-    arc (tangential velocity never damped), which bbdyn does not model.
-    """
-    if not isinstance(params, Params):
-        raise TypeError(f"params must be a bbdyn.Params, got {type(params).__name__}")
-    if params.beta == 1.0 and params.alpha < 1.0:
-        raise ValueError(
-            "beta = 1 with alpha < 1 is not supported: chattering would end in sliding "
-            f"along the arc, which is not modelled; use beta < 1 (got alpha={params.alpha})"
-        )
+
+def xi_at_arc_length(params: Params, s: float) -> float:
+    """Local coordinate xi (mm) of the floor point at arc length ``s`` (mm) from the left wedge."""
+    return xi_from_arc_length(float(s), params.kernel())
 
 
 def state_from_section(

@@ -24,7 +24,6 @@ from dataclasses import asdict, dataclass
 
 import numpy as np
 
-from bbdyn.billiard import check_params
 from bbdyn.core.status import FAILURES
 from bbdyn.diffusion import einstein_D, einstein_D_windows, per_particle_slopes
 from bbdyn.ensemble import (
@@ -40,7 +39,7 @@ from bbdyn.ensemble import (
     reference_box,
     run_chunked,
 )
-from bbdyn.params import Params
+from bbdyn.params import Params, check_params
 from bbdyn.results import Result, make_meta
 
 __all__ = [

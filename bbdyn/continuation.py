@@ -44,7 +44,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from bbdyn.core.flat import flat_event
+from bbdyn.core.flat import flat_event, flat_run
 from bbdyn.core.flat_jacobian import flat_map_jacobian
 from bbdyn.core.plate import TWO_PI, sin_minus_x
 from bbdyn.core.status import IMPACT, NON_FINITE, OK, STATUS_MESSAGES
@@ -56,6 +56,7 @@ __all__ = [
     "Bifurcation",
     "Branch",
     "CascadeTable",
+    "bifurcation_diagram",
     "OrbitLost",
     "continue_branch",
     "doubling_cascade",
@@ -681,3 +682,34 @@ def doubling_cascade(alpha: float = 0.5, kmax: int = 3, levels: int = 8) -> Casc
     return CascadeTable(
         {"k": np.arange(1, kmax + 1), "gamma_doubling": table, "ratio": ratios}, meta
     )
+
+
+def bifurcation_diagram(gammas, alpha: float, transient: int, record: int) -> np.ndarray:
+    """Impact phases (rad) of the flat ball by direct iteration of the exact map, against Gamma.
+
+    Gamma is swept up through ``gammas`` (sorted), each run starting from the last state
+    of the previous one (the first from the stable 1/1 orbit, docs/model.md §1); after
+    ``transient`` events, the phases of the next ``record`` events are kept (NaN for
+    events that are not impacts, and a row of NaN where the run fails).
+
+    Returns
+    -------
+    array, shape (len(gammas), record)
+    """
+    from bbdyn.tongues import k1_cos_phase, tongue_gamma_hi, tongue_gamma_lo
+
+    gammas = np.asarray(gammas, dtype=float)
+    g0 = min(max(gammas[0], tongue_gamma_lo(1, alpha)), tongue_gamma_hi(1, alpha))
+    theta = TWO_PI - np.arccos(k1_cos_phase(1, g0, alpha))
+    state = (0.0, float(theta), 2 * alpha * np.pi / (1 + alpha), IMPACT)
+    phases = np.full((len(gammas), record), np.nan)
+    n = transient + record
+    for i, gamma in enumerate(gammas):
+        out = [np.zeros(n), np.zeros(n), np.zeros(n), np.zeros(n, dtype=np.int64)]
+        done, status = flat_run(*state, unit_kernel(float(gamma), alpha), *out)
+        if status != OK or done < n:
+            continue
+        kinds = out[3][transient:]
+        phases[i] = np.where(kinds == IMPACT, out[1][transient:], np.nan)
+        state = (0.0, float(out[1][-1]), float(out[2][-1]), int(out[3][-1]))
+    return phases

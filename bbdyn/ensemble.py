@@ -33,7 +33,6 @@ from typing import NamedTuple
 import numba
 import numpy as np
 
-from bbdyn.billiard import check_params
 from bbdyn.core.status import (
     BAD_STATE,
     FAILURES,
@@ -44,7 +43,7 @@ from bbdyn.core.status import (
     STUCK_FOREVER,
     SimulationError,
 )
-from bbdyn.params import Params
+from bbdyn.params import Params, check_params
 from bbdyn.results import Result, make_meta
 
 __all__ = ["Box", "reference_box", "initial_conditions", "ensemble", "EnsembleResult"]

@@ -12,7 +12,7 @@ import numbers
 from dataclasses import asdict, dataclass, replace
 from typing import NamedTuple
 
-__all__ = ["Params", "KernelParams"]
+__all__ = ["Params", "KernelParams", "check_params"]
 
 
 class KernelParams(NamedTuple):
@@ -188,4 +188,19 @@ class Params:
             curv_bound=self.g + self.A * w * w,
             c0=math.sqrt(self.R**2 - self.d**2 / 4),
             period=1.0 / self.f,
+        )
+
+
+def check_params(params: Params) -> None:
+    """Refuse parameters the billiard kernel does not model.
+
+    ``beta = 1`` with ``alpha < 1``: chattering then ends in sliding along the
+    arc (tangential velocity never damped), which bbdyn does not model.
+    """
+    if not isinstance(params, Params):
+        raise TypeError(f"params must be a bbdyn.Params, got {type(params).__name__}")
+    if params.beta == 1.0 and params.alpha < 1.0:
+        raise ValueError(
+            "beta = 1 with alpha < 1 is not supported: chattering would end in sliding "
+            f"along the arc, which is not modelled; use beta < 1 (got alpha={params.alpha})"
         )

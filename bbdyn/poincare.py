@@ -35,10 +35,10 @@ from typing import ClassVar
 
 import numpy as np
 
-from bbdyn.billiard import BilliardTrajectory, check_params, simulate
+from bbdyn.billiard import BilliardTrajectory, simulate
 from bbdyn.core.floor import arc_coordinates
 from bbdyn.core.status import IMPACT, STICK
-from bbdyn.params import Params
+from bbdyn.params import Params, check_params
 from bbdyn.results import Result, make_meta
 
 __all__ = [

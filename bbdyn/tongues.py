@@ -559,3 +559,20 @@ def tongue_table(
         },
         make_meta(wall_s=time.perf_counter() - start, alpha=alpha, A=A, g=g, kmax=kmax),
     )
+
+
+def tongue_intervals(params: Params, f_lo: float, f_hi: float, kmax: int = 6) -> np.ndarray:
+    """k/1 tongue intervals of the flat ball (closed form) meeting ``[f_lo, f_hi]``, Hz.
+
+    Returns
+    -------
+    array, shape (m, 3)
+        Rows ``(k, f_start, f_stop)``.
+    """
+    table = tongue_table(params.alpha, kmax, params.A, params.g, numeric=False)
+    rows = [
+        (float(k), float(a), float(b))
+        for k, a, b in zip(table["k"], table["f_lo_hz"], table["f_hi_hz"], strict=True)
+        if b >= f_lo and a <= f_hi
+    ]
+    return np.array(rows).reshape(-1, 3)

@@ -1,35 +1,166 @@
-"""The import direction of the layers (README, Layout), enforced by reading imports."""
+"""The layers of bbdyn (README, Layout; docs/architecture.md), enforced by reading imports.
+
+Every import counts, module level and inside functions alike.  ``python
+tests/test_architecture.py`` prints the layer map: modules per layer and the imports
+between layers.
+"""
 
 import ast
 import subprocess
 import sys
+from collections import Counter
 from pathlib import Path
 
 PACKAGE = Path(__file__).resolve().parents[1] / "bbdyn"
-CORE_ALLOWED = {"math", "numpy", "numba", "bbdyn"}
+
+#: Layers from the bottom up, and the modules of each (by dotted-name prefix).
+LAYERS = {
+    "core": ("bbdyn.core",),
+    "api": (
+        "bbdyn",  # the package itself: Params and the version
+        "bbdyn.params",
+        "bbdyn.results",
+        "bbdyn.billiard",
+        "bbdyn.ensemble",
+        "bbdyn.diffusion",
+        "bbdyn.classify",
+        "bbdyn.poincare",
+        "bbdyn.flatball",
+        "bbdyn.tongues",
+        "bbdyn.highbounce",
+        "bbdyn.continuation",
+        "bbdyn.lyapunov",
+        "bbdyn.approx",
+    ),
+    "reference": ("bbdyn.reference",),
+    "scans": ("bbdyn.scans",),
+    "scenes": ("bbdyn.scenes",),
+    "cli": ("bbdyn.cli", "bbdyn.commands", "bbdyn.__main__"),
+}
+#: Which layers each layer may import (its own included).
+ALLOWED = {
+    "core": {"core"},
+    "api": {"core", "api"},
+    "reference": {"core", "api", "reference"},
+    "scans": {"core", "api", "scans"},
+    # scenes reach the core only through the API; the B2 benchmarks time kernels directly
+    "scenes": {"api", "reference", "scans", "scenes"},
+    "cli": {"core", "api", "reference", "scans", "scenes", "cli"},
+}
+#: Scenes that may import the core: the benchmarks (they time and compare kernels).
+BENCHMARK_SCENES = ("bbdyn.scenes.b2_flat", "bbdyn.scenes.b2_billiard")
+#: Third-party packages the core may use.
+CORE_THIRD_PARTY = {"math", "numpy", "numba"}
 
 
-def _imports(path: Path) -> set[str]:
-    tree = ast.parse(path.read_text())
+def module_name(path: Path) -> str:
+    parts = path.relative_to(PACKAGE.parent).with_suffix("").parts
+    return ".".join(parts[:-1] if parts[-1] == "__init__" else parts)
+
+
+MODULES = {module_name(p): p for p in sorted(PACKAGE.rglob("*.py"))}
+
+
+def layer_of(module: str) -> str:
+    """The layer of a bbdyn module: the one with the longest matching prefix."""
+    best, length = None, -1
+    for layer, prefixes in LAYERS.items():
+        for prefix in prefixes:
+            if (module == prefix or module.startswith(prefix + ".")) and len(prefix) > length:
+                best, length = layer, len(prefix)
+    if best is None:
+        raise AssertionError(f"{module} belongs to no layer: add it to LAYERS")
+    return best
+
+
+def imports(module: str) -> set[str]:
+    """Every module imported by ``module`` (absolute names; ``from a import b`` gives
+    ``a.b`` when that is a bbdyn module, else ``a``)."""
+    path = MODULES[module]
+    package = module if path.name == "__init__.py" else module.rpartition(".")[0]
     names = set()
-    for node in ast.walk(tree):
+    for node in ast.walk(ast.parse(path.read_text())):
         if isinstance(node, ast.Import):
             names.update(alias.name for alias in node.names)
-        elif isinstance(node, ast.ImportFrom) and node.module:
-            names.add(node.module)
+        elif isinstance(node, ast.ImportFrom):
+            base = node.module or ""
+            if node.level:
+                parent = package.split(".")[: len(package.split(".")) - node.level + 1]
+                base = ".".join(parent + ([base] if base else []))
+            for alias in node.names:
+                full = f"{base}.{alias.name}"
+                names.add(full if full in MODULES else base)
+    names.discard(module)
     return names
 
 
+def internal_graph() -> dict[str, set[str]]:
+    return {m: {n for n in imports(m) if n in MODULES} for m in MODULES}
+
+
+def test_every_module_has_a_layer():
+    for module in MODULES:
+        layer_of(module)
+
+
 def test_core_imports_only_numpy_math_numba_and_core():
-    for path in (PACKAGE / "core").glob("*.py"):
-        for name in _imports(path):
+    for module in MODULES:
+        if layer_of(module) != "core":
+            continue
+        for name in imports(module):
             top = name.split(".")[0]
-            assert top in CORE_ALLOWED, f"{path.name} imports {name}"
+            assert top in CORE_THIRD_PARTY | {"bbdyn"}, f"{module} imports {name}"
             if top == "bbdyn":
-                assert name.startswith("bbdyn.core"), f"{path.name} imports {name}"
+                assert layer_of(name) == "core", f"{module} imports {name}"
+
+
+def test_each_layer_imports_only_the_layers_below_it():
+    wrong = []
+    for module, deps in internal_graph().items():
+        layer = layer_of(module)
+        allowed = ALLOWED[layer] | ({"core"} if module in BENCHMARK_SCENES else set())
+        wrong += [f"{module} ({layer}) imports {d} ({layer_of(d)})" for d in deps
+                  if layer_of(d) not in allowed]  # fmt: skip
+    assert not wrong, "\n".join(wrong)
+
+
+def test_no_import_cycles():
+    edges = internal_graph()
+    state, cycles = {}, []
+
+    def visit(node, stack):
+        state[node] = "open"
+        for dep in sorted(edges[node]):
+            if state.get(dep) == "open":
+                cycles.append(" -> ".join(stack[stack.index(dep) :] + [dep]))
+            elif dep not in state:
+                visit(dep, stack + [dep])
+        state[node] = "done"
+
+    for module in sorted(edges):
+        if module not in state:
+            visit(module, [module])
+    assert not cycles, "import cycles:\n" + "\n".join(cycles)
 
 
 def test_import_bbdyn_loads_neither_sympy_nor_matplotlib():
     code = "import sys, bbdyn; print('sympy' in sys.modules, 'matplotlib' in sys.modules)"
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert out.stdout.split() == ["False", "False"]
+
+
+def layer_map() -> str:
+    """Modules per layer and the number of imports from each layer into each."""
+    graph = internal_graph()
+    lines = []
+    for layer in LAYERS:
+        members = sorted(m for m in MODULES if layer_of(m) == layer)
+        lines.append(f"{layer} ({len(members)} modules): " + ", ".join(members))
+    crossing = Counter((layer_of(m), layer_of(d)) for m, deps in graph.items() for d in deps)
+    counts = ", ".join(f"{a} -> {b}: {n}" for (a, b), n in sorted(crossing.items()))
+    lines.append(f"imports (from -> to: count): {counts}")
+    return "\n".join(lines)
+
+
+if __name__ == "__main__":
+    print(layer_map())

@@ -7,11 +7,11 @@ import numpy as np
 import pytest
 
 from bbdyn import Params, cli
-from bbdyn.benchmarking import billiard as bench
-from bbdyn.benchmarking.fixed_step_billiard import fixed_step_billiard_one_step
 from bbdyn.core.billiard import billiard_run
 from bbdyn.core.status import IMPACT, OK, STICK
 from bbdyn.core.tolerances import EPS, IMPACT_TIME_TOL
+from bbdyn.reference.fixed_step_billiard import fixed_step_billiard_one_step
+from bbdyn.scenes import b2_billiard as bench
 
 N_FLIGHTS = 40
 

@@ -8,17 +8,17 @@ import pytest
 from scipy.optimize import brentq
 
 from bbdyn import cli
-from bbdyn.benchmarking.fixed_step import fixed_step_one_step, fixed_step_run
-from bbdyn.benchmarking.flat import (
-    case_params,
-    exact_one_step,
-    ivp_flight,
-    one_step_errors,
-    start_states,
-)
 from bbdyn.core.flat import flat_flight, flat_flight_tol, flat_run, flat_run_count
 from bbdyn.core.status import IMPACT, OK
 from bbdyn.core.tolerances import EPS, ROOT_STEP_REL
+from bbdyn.reference.fixed_step import fixed_step_one_step, fixed_step_run
+from bbdyn.reference.flat_ivp import ivp_flight
+from bbdyn.scenes.b2_flat import (
+    case_params,
+    exact_one_step,
+    one_step_errors,
+    start_states,
+)
 
 #: Stopping tolerances of the exact map compared in the benchmark, loosest first.
 STEP_RELS = [1e-4, 1e-7, 1e-10, 1e-13, ROOT_STEP_REL]

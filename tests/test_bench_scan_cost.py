@@ -5,8 +5,8 @@ import math
 import numpy as np
 import pytest
 
-from bbdyn.benchmarking import scan_cost as sc
-from bbdyn.frequency_scan import frequency_grid
+from bbdyn.scans.frequency import frequency_grid
+from bbdyn.scenes import b2_scan_cost as sc
 
 SETTINGS = {"samples": 17, "n": 4, "t": 2.5, "repeats": 3}
 

@@ -11,10 +11,10 @@ import pytest
 from numba import njit
 
 from bbdyn import Params
-from bbdyn.benchmarking.billiard import CASE, _reference
 from bbdyn.core.billiard import billiard_event_rule, billiard_flight, billiard_flight_rule
 from bbdyn.core.status import IMPACT, OK
 from bbdyn.core.tolerances import IMPACT_TIME_TOL
+from bbdyn.scenes.b2_billiard import CASE, _reference
 
 FREQUENCIES = (50.2, 58.0, 70.0, 85.2)
 #: Non-chaotic at these frequencies from CASE's start: 1e4 events follow one orbit.

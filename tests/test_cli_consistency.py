@@ -179,15 +179,3 @@ def test_python_m_bbdyn_is_the_cli():
     assert "Traceback" not in bad.stderr
     rows = json.loads(_run("tongues", "--kmax", "2", "--closed-form", "--json").stdout)
     assert [r["k"] for r in rows] == [1, 2]
-
-
-def test_scene_help_names_the_registered_scenes():
-    import re
-
-    from bbdyn.commands import scene
-    from bbdyn.scenes import SCENES
-
-    named = set()
-    for letter, lo, hi in re.findall(r"([SB])(\d+)(?:-[SB](\d+))?", scene.HELP):
-        named |= {f"{letter}{k}" for k in range(int(lo), int(hi or lo) + 1)}
-    assert named == set(SCENES)

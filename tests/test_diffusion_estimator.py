@@ -89,7 +89,7 @@ def _changing_walk(rng, n, times, D_early, D_late, t_switch):
 def test_scan_point_fits_the_late_half_of_a_walk_with_a_transient():
     """A walk diffusing 4x faster before t/2: the scan point's D is the late D, many errors
     away from the early one (the MSD slope over [0, t/2] would be 4.0)."""
-    from bbdyn.frequency_scan import diffusion_fit
+    from bbdyn.scans.frequency import diffusion_fit
 
     rng = np.random.default_rng(21)
     times = np.linspace(0.0, 20.0, 201)
@@ -107,7 +107,7 @@ def test_scan_point_D_is_einstein_D_over_the_late_window_of_its_own_data():
     the point's seed (a particle's trajectory depends only on the seed and its index)."""
     from bbdyn import Params
     from bbdyn.ensemble import ensemble
-    from bbdyn.frequency_scan import diffusion_point
+    from bbdyn.scans.frequency import diffusion_point
 
     f, n, t = 85.2, 40, 4.0
     seq = np.random.SeedSequence(7)

@@ -183,3 +183,27 @@ def test_full_scan_key_numbers_in_results_page_come_from_the_figures():
         for key, value in meta["key_numbers"].items():
             if key.startswith(("D_max", "E_x max", "scan CPU")):
                 assert f"* {key}: {value}" in page, (name, key, value)
+
+
+PAGES = sorted((ROOT / "docs").glob("*.md")) + [ROOT / "README.md"]
+
+
+def _named_in_pages(pattern: str) -> list[tuple[str, str]]:
+    found = set()
+    for page in PAGES:
+        for name in re.findall(pattern, page.read_text(encoding="utf-8")):
+            found.add((page.name, name))
+    return sorted(found)
+
+
+@pytest.mark.parametrize(("page", "path"), _named_in_pages(r"`(bbdyn/[\w/]+\.py)`"))
+def test_file_named_in_docs_exists(page, path):
+    assert (ROOT / path).is_file(), f"{page} names {path}, which does not exist"
+
+
+@pytest.mark.parametrize(("page", "name"), _named_in_pages(r"`(bbdyn(?:\.\w+)+)`"))
+def test_object_named_in_docs_exists(page, name):
+    try:
+        resolve(name)
+    except (ModuleNotFoundError, AttributeError) as err:
+        pytest.fail(f"{page} names {name}, which does not exist ({err})")

@@ -1,4 +1,4 @@
-"""Fine-structure statistics (bbdyn.finestructure) and scene B6 on synthetic data.
+"""Fine-structure statistics (bbdyn.scans.fine_structure) and scene B6 on synthetic data.
 
 Independent facts: the increment chi-squared equals a weighted straight-line fit's;
 on smooth function + noise the p-values are uniform (false-positive rate at the
@@ -16,7 +16,8 @@ import numpy as np
 import pytest
 from scipy import stats
 
-from bbdyn import finestructure as fs
+from bbdyn.scans import fine_structure as fs
+from bbdyn.scans.cache import scene_folder
 
 STEPS = (0.02, 0.005, 0.001, 0.0002)
 
@@ -191,7 +192,7 @@ def test_scene_b6_tiny_run_shares_and_resumes(tmp_path):
 
 
 def test_scene_b6_passes_the_scheduler(monkeypatch, tmp_path):
-    import bbdyn.scan
+    import bbdyn.scans.runner
     from bbdyn.scenes import b6_fine_structure as b6
 
     seen = {}
@@ -200,11 +201,12 @@ def test_scene_b6_passes_the_scheduler(monkeypatch, tmp_path):
         seen.update(kwargs)
         raise RuntimeError("stop")
 
-    monkeypatch.setattr(bbdyn.scan, "run_scan", fake_run_scan)
+    monkeypatch.setattr(bbdyn.scans.runner, "run_scan", fake_run_scan)
     with pytest.raises(RuntimeError, match="stop"):
         b6.compute({**TINY, "scheduler": "tcp://cluster:8786"}, 0, out_dir=tmp_path)
     assert seen["scheduler"] == "tcp://cluster:8786"
-    assert seen["out_dir"] == b6.scan_folder(TINY, 0, tmp_path)  # scheduler not in the digest
+    # the scheduler is not in the digest
+    assert seen["out_dir"] == scene_folder("finestructure", TINY, 0, tmp_path)
     monkeypatch.setenv(b6.SCHEDULER_VARIABLE, "tcp://other:8786")
     with pytest.raises(RuntimeError, match="stop"):
         b6.compute(TINY, 0, out_dir=tmp_path)

@@ -17,8 +17,8 @@ from bbdyn.core.tolerances import (
     IMPACT_TIME_TOL,
     ROOT_STEP_REL,
 )
-from bbdyn.flat_reference import reference_impacts
 from bbdyn.flatball import flat_ensemble, simulate_flat
+from bbdyn.reference.flat_mpmath import reference_impacts
 
 # ---- grazing -------------------------------------------------------------------------
 

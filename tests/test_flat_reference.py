@@ -1,4 +1,4 @@
-"""The numba flat map against the mpmath reference (bbdyn.flat_reference)."""
+"""The numba flat map against the mpmath reference (bbdyn.reference.flat_mpmath)."""
 
 import math
 
@@ -9,7 +9,7 @@ from bbdyn import Params
 from bbdyn.core.flat import flat_run
 from bbdyn.core.status import IMPACT, OK
 from bbdyn.core.tolerances import EPS, IMPACT_TIME_TOL
-from bbdyn.flat_reference import reference_impacts
+from bbdyn.reference.flat_mpmath import reference_impacts
 
 
 def _kernel_run(kp, phase0, vrel0, n):

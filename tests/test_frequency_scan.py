@@ -1,4 +1,4 @@
-"""D and energies across frequency (bbdyn.frequency_scan, bbdyn.diffusion checks).
+"""D and energies across frequency (bbdyn.scans.frequency, bbdyn.diffusion checks).
 
 Facts checked: the Einstein D of synthetic random walks covers the truth at the
 nominal rate, and its bootstrap error agrees with the analytic one; the window
@@ -24,13 +24,13 @@ from bbdyn.diffusion import (
     window_consistency,
 )
 from bbdyn.ensemble import ensemble
-from bbdyn.frequency_scan import (
+from bbdyn.scans.frequency import (
     diffusion_point,
     frequency_grid,
     frequency_scan,
-    tongue_intervals,
 )
-from bbdyn.scan import load_scan
+from bbdyn.scans.runner import load_scan
+from bbdyn.tongues import tongue_intervals
 
 D_TRUE = 2.5  # mm^2/s
 TINY = {"n": 6, "t": 1.0}
@@ -219,7 +219,7 @@ def test_scan_below_gamma_one_finishes_trapped(tmp_path):
 def test_partial_of_diffusion_point_is_recorded_in_the_manifest(tmp_path):
     scan = frequency_scan([60.0], out_dir=tmp_path / "m", seed=0, workers=1, **TINY)
     compute = scan.meta["compute"]
-    assert compute["function"] == "bbdyn.frequency_scan:diffusion_point"
+    assert compute["function"] == "bbdyn.scans.frequency:diffusion_point"
     assert compute["kwargs"] == {"n": 6, "t": 1.0}
     assert functools.partial(diffusion_point, n=6, t=1.0)(60.0, np.random.SeedSequence(0))
 
@@ -284,7 +284,7 @@ def test_refused_scan_writes_nothing(tmp_path, capsys, option, value, match):
 
 
 def test_absurd_grid_is_refused_with_its_cost_before_allocating():
-    from bbdyn.frequency_scan import MAX_POINTS, check_scan_size
+    from bbdyn.scans.frequency import MAX_POINTS, check_scan_size
 
     with pytest.raises(ValueError, match="f_step") as info:
         frequency_grid(49.8, 95.0, 1e-12)
@@ -298,7 +298,7 @@ def test_absurd_grid_is_refused_with_its_cost_before_allocating():
 
 def test_disk_estimate_matches_a_stored_point(tmp_path):
     """The estimate of the disk a scan needs is the size of the points it writes (+-50 %)."""
-    from bbdyn.frequency_scan import point_bytes
+    from bbdyn.scans.frequency import point_bytes
 
     frequency_scan([85.2], out_dir=tmp_path / "s", seed=1, workers=1, **TINY)
     size = sum(p.stat().st_size for p in (tmp_path / "s" / "points").iterdir())

@@ -1,4 +1,4 @@
-"""Random walk and Green-Kubo at one frequency (bbdyn.gk_scan) and the `bbdyn gk` command."""
+"""Random walk and Green-Kubo at one frequency (bbdyn.scans.green_kubo), the `bbdyn gk` command."""
 
 import json
 import math
@@ -8,8 +8,8 @@ import pytest
 
 from bbdyn import Params
 from bbdyn.cli import main
-from bbdyn.gk_scan import gk_numbers, gk_point, gk_run, gk_scan
-from bbdyn.scan import point_seed
+from bbdyn.scans.green_kubo import gk_numbers, gk_point, gk_run, gk_scan
+from bbdyn.scans.runner import point_seed
 
 #: Pulls (differences over combined standard errors) for statistical checks: a correct
 #: estimator exceeds 3 with probability 0.3 %.

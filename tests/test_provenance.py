@@ -10,7 +10,17 @@ import pytest
 
 from bbdyn import __version__
 from bbdyn.cli import main
-from bbdyn.reproduce import (
+from bbdyn.scenes import (
+    SCENES,
+    SOURCE_ROOT,
+    read_png_provenance,
+    redraw_scene,
+    run_scene,
+    scene_module,
+    scene_settings,
+    source_state,
+)
+from bbdyn.scenes.reproduce import (
     DOCS_FIGURES,
     PRE_PROVENANCE,
     TABLE_BEGIN,
@@ -20,15 +30,6 @@ from bbdyn.reproduce import (
     figure_records,
     reproduce,
     reproduce_docs,
-)
-from bbdyn.scenes import (
-    SCENES,
-    SOURCE_ROOT,
-    read_png_provenance,
-    redraw_scene,
-    run_scene,
-    scene_settings,
-    source_state,
 )
 
 DOCS = Path(__file__).resolve().parents[1] / "docs"
@@ -115,7 +116,7 @@ def no_runs(monkeypatch):
     def refuse(*args, **kwargs):
         raise AssertionError("no scene may run")
 
-    monkeypatch.setattr("bbdyn.reproduce.run_scene", refuse)
+    monkeypatch.setattr("bbdyn.scenes.reproduce.run_scene", refuse)
 
 
 def test_reproduce_only_without_ids_is_refused(no_runs, tmp_path, capsys):
@@ -126,6 +127,20 @@ def test_reproduce_only_without_ids_is_refused(no_runs, tmp_path, capsys):
     assert exc.value.code == 2
     err = capsys.readouterr().err
     assert "at least one scene id" in err and ", ".join(SCENES) in err
+
+
+def test_reproduce_medium_runs_exactly_the_scenes_that_have_a_medium_setting(monkeypatch, tmp_path):
+    ran = []
+
+    def record(scene_id, **kwargs):
+        ran.append((scene_id, kwargs["setting"]))
+        return None, None
+
+    monkeypatch.setattr("bbdyn.scenes.reproduce.run_scene", record)
+    reproduce(tmp_path, setting="medium")
+    have = [s for s in SCENES if hasattr(scene_module(s), "MEDIUM")]
+    assert "B1" in have and "S6" not in have
+    assert ran == [(s, "medium") for s in have]
 
 
 def test_unknown_ids_are_refused_with_the_known_ones(no_runs, tmp_path, capsys):

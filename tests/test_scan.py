@@ -1,4 +1,4 @@
-"""Resumable, parallel scans (bbdyn.scan): seeds, storage, interruption, dask.
+"""Resumable, parallel scans (bbdyn.scans.runner): seeds, storage, interruption, dask.
 
 The compute functions are cheap stand-ins (a synthetic random draw, and an
 ensemble of flat balls from bbdyn.core.flat); the facts checked are the scan's:
@@ -23,8 +23,8 @@ import pytest
 from bbdyn import Params
 from bbdyn.core.flat import flat_run_count
 from bbdyn.core.status import IMPACT, STICK, STUCK_FOREVER, raise_for_status
-from bbdyn.progress import Progress
-from bbdyn.scan import KEY_SCALE, ScanResult, load_scan, point_key, point_seed, run_scan
+from bbdyn.scans.progress import Progress
+from bbdyn.scans.runner import KEY_SCALE, ScanResult, load_scan, point_key, point_seed, run_scan
 
 VALUES = [50.0, 58.0, 60.2, 72.4, 95.0]
 
@@ -214,7 +214,7 @@ def test_interrupted_process_keeps_points_and_resume_matches(
     compute = functools.partial(synthetic, hang_file=str(hang))
     code = (
         "import sys, functools; sys.path.insert(0, sys.argv[1]);"
-        "from test_scan import synthetic, VALUES; from bbdyn.scan import run_scan;"
+        "from test_scan import synthetic, VALUES; from bbdyn.scans.runner import run_scan;"
         "run_scan(VALUES, functools.partial(synthetic, hang_file=sys.argv[3]),"
         " out_dir=sys.argv[2], seed=3, workers=1, progress=False)"
     )

@@ -21,7 +21,7 @@ import numpy as np
 import pytest
 
 import bbdyn.results
-from bbdyn.scan import load_scan, run_scan
+from bbdyn.scans.runner import load_scan, run_scan
 
 sys.path.insert(0, str(Path(__file__).parent))
 from test_scan import VALUES, _group_alive, synthetic  # noqa: E402
@@ -160,7 +160,7 @@ def _hanging_scan(out: Path, hang: Path, workers: int = 1) -> subprocess.Popen:
     """``run_scan`` of VALUES in a new process session; points above 60 Hz hang."""
     code = (
         "import sys, functools; sys.path.insert(0, sys.argv[1]);"
-        "from test_scan import synthetic, VALUES; from bbdyn.scan import run_scan;"
+        "from test_scan import synthetic, VALUES; from bbdyn.scans.runner import run_scan;"
         "run_scan(VALUES, functools.partial(synthetic, hang_file=sys.argv[3]),"
         f" out_dir=sys.argv[2], seed=3, workers={workers}, progress=False)"
     )

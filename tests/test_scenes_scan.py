@@ -7,9 +7,10 @@ import numpy as np
 import pytest
 
 from bbdyn.cli import main
-from bbdyn.frequency_scan import FrequencyScanScene, scan_folder
 from bbdyn.results import load_result
+from bbdyn.scans.cache import scene_folder
 from bbdyn.scenes import redraw_scene, scene_module
+from bbdyn.scenes.frequency_scene import FrequencyScanScene
 
 TINY = {"f_start": 49.0, "f_stop": 89.0, "f_step": 20.0, "n": 6, "t": 1.0, "workers": 2}
 
@@ -26,7 +27,7 @@ def shared(tmp_path_factory):
 def test_the_three_scenes_share_one_scan(shared):
     out, scenes = shared
     folders = list((out / "scans").iterdir())
-    assert folders == [scan_folder(TINY, 3, out)]
+    assert folders == [scene_folder("diffusion", TINY, 3, out)]
     # computed once: every scene reads the same points (same per-point timings)
     cpu = {sid: s.meta["scan_cpu_s"] for sid, s in scenes.items()}
     assert len(set(cpu.values())) == 1
@@ -37,8 +38,9 @@ def test_the_three_scenes_share_one_scan(shared):
 
 
 def test_other_seed_or_setting_gets_its_own_scan(tmp_path):
-    assert scan_folder(TINY, 3, tmp_path) != scan_folder(TINY, 4, tmp_path)
-    assert scan_folder(TINY, 3, tmp_path) != scan_folder(TINY | {"n": 7}, 3, tmp_path)
+    folder = scene_folder("diffusion", TINY, 3, tmp_path)
+    assert folder != scene_folder("diffusion", TINY, 4, tmp_path)
+    assert folder != scene_folder("diffusion", TINY | {"n": 7}, 3, tmp_path)
 
 
 def test_scenes_draw_tongues_and_error_bars(shared):
@@ -67,7 +69,8 @@ def test_scene_saved_and_redrawn_without_recomputing(shared, tmp_path):
 
 def test_scene_reads_a_given_scan_folder(shared):
     out, scenes = shared
-    again = scene_module("S5").compute({"scan_dir": str(scan_folder(TINY, 3, out))}, 0)
+    folder = scene_folder("diffusion", TINY, 3, out)
+    again = scene_module("S5").compute({"scan_dir": str(folder)}, 0)
     np.testing.assert_array_equal(again["E_x"], scenes["S5"]["E_x"])
 
 

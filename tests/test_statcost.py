@@ -7,7 +7,7 @@ import pytest
 
 from bbdyn.diffusion import einstein_D
 from bbdyn.results import load_result
-from bbdyn.statcost import StatCostResult, loglog_slope, statcost
+from bbdyn.scans.statcost import StatCostResult, loglog_slope, statcost
 
 
 def brownian(rng, n, t_max, m=50, D=1.0):

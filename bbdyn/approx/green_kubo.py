@@ -40,7 +40,7 @@ import time
 
 import numpy as np
 
-from bbdyn.approx import JumpData
+from bbdyn.approx.jumps import JumpData
 from bbdyn.approx.random_walk import escape_time, jump_length_distribution
 from bbdyn.results import Result, make_meta
 

@@ -19,7 +19,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from bbdyn.approx import JumpData
+from bbdyn.approx.jumps import JumpData
 from bbdyn.params import Params
 
 __all__ = [

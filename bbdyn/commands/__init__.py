@@ -24,8 +24,8 @@ from collections.abc import Callable
 from pathlib import Path
 
 from bbdyn.params import Params
-from bbdyn.progress import Progress, progress_stream
-from bbdyn.progress import rough_duration as duration
+from bbdyn.scans.progress import Progress, progress_stream
+from bbdyn.scans.progress import rough_duration as duration
 
 #: Defaults of the fields of ``bbdyn.Params`` (f has none).
 PARAM_DEFAULTS = {
@@ -271,3 +271,15 @@ def run_progress(label: str, t: float, json_mode: bool) -> RunProgress:
     """The progress line of a run of ``t`` simulated seconds: on stderr when stderr is a
     terminal, silent with ``--json`` or when stderr is not a terminal."""
     return RunProgress(label, t, None if json_mode else progress_stream(True))
+
+
+def add_setting_arguments(parser):
+    """``--quick`` (the default), ``--medium`` and ``--full``, storing ``args.setting``;
+    returns their mutually exclusive group (for further modes)."""
+    mode = parser.add_mutually_exclusive_group()
+    for name, what in (("quick", "quick setting (default)"),
+                       ("medium", "medium setting (scenes that have one)"),
+                       ("full", "full (reference paper) setting")):  # fmt: skip
+        mode.add_argument(f"--{name}", dest="setting", action="store_const", const=name, help=what)
+    parser.set_defaults(setting="quick")
+    return mode

@@ -1,11 +1,9 @@
 """`bbdyn bench TARGET [--quick] [--json] [--out PNG]`: work-precision benchmarks (B2).
 
-A target is a module registered in ``TARGETS`` that provides ``QUICK`` and
-``FULL`` (settings dicts), ``compute(settings, log=...) -> Result`` whose
-``meta["rows"]`` is a list of dicts (at least ``method``, ``setting``,
-``impacts_per_s``, ``max_time_error_s``, ``max_velocity_error``), ``table(result)
--> str`` and ``draw(result) -> Figure``.  Add the billiard benchmark by adding
-its module here.
+A target is a view of a B2 scene of the scene registry (``bbdyn.scenes.SCENES``):
+``bbdyn bench flat`` runs scene ``B2-FLAT`` at its full (or quick) setting, with
+``--impacts`` and ``--long-run`` overriding its sizes, and prints the scene's
+``table``; the figure and numbers are saved as for any scene (with provenance).
 """
 
 import json
@@ -14,9 +12,8 @@ from bbdyn.commands import integer_in, jsonable, output_file, report_written
 
 HELP = "work-precision benchmark (B2): speed and error against an mpmath reference"
 
-#: target name -> module providing QUICK, FULL, compute, table, draw
-TARGETS = {"flat": "bbdyn.benchmarking.flat", "billiard": "bbdyn.benchmarking.billiard",
-           "scan-cost": "bbdyn.benchmarking.scan_cost"}  # fmt: skip
+#: target name -> scene id in ``bbdyn.scenes.SCENES``
+TARGETS = {"flat": "B2-FLAT", "billiard": "B2-BILLIARD", "scan-cost": "B2-SCAN-COST"}
 
 #: Upper bounds of the overrides, 25 and 100 times the largest full settings (400
 #: compared impacts, 100000 long-run impacts).
@@ -44,29 +41,24 @@ def add_arguments(parser) -> None:
 
 
 def run(args) -> int:
-    import importlib
     from pathlib import Path
 
-    import matplotlib
+    from bbdyn.scenes import run_scene, scene_module
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    module = importlib.import_module(TARGETS[args.target])
-    settings = dict(module.QUICK if args.quick else module.FULL)
-    for key, value in (("n_impacts", args.impacts), ("long_run", args.long_run)):
-        if value is not None:
-            settings[key] = value
-    result = module.compute(settings)
-    result.meta["setting"] = "quick" if args.quick else "full"
+    scene_id = TARGETS[args.target]
+    overrides = {k: v for k, v in (("n_impacts", args.impacts), ("long_run", args.long_run))
+                 if v is not None}  # fmt: skip
     png = args.out or Path("out") / f"bench_{args.target}.png"
-    result.save(png.with_suffix(""))
-    fig = module.draw(result)
-    fig.savefig(png, dpi=150, bbox_inches="tight")
-    plt.close(fig)
+    result, png = run_scene(
+        scene_id,
+        setting="quick" if args.quick else "full",
+        out_dir=png.parent,
+        name=png.stem,
+        overrides=overrides,
+    )
     if args.json:
         print(json.dumps(jsonable(result.meta["rows"]), indent=1))
     else:
-        print(module.table(result) + "\n")
+        print(scene_module(scene_id).table(result) + "\n")
     report_written(f"figure: {png}; numbers: {png.with_suffix('.json')}", args.json)
     return 0

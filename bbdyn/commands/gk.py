@@ -1,6 +1,6 @@
 """`bbdyn gk --f F [--A --alpha --beta --R --d] [--nmax 10 --n N --t T --seed S] [--json]`.
 
-Runs the reference ensemble at one frequency (``bbdyn.gk_scan.gk_run``) and prints
+Runs the reference ensemble at one frequency (``bbdyn.scans.green_kubo.gk_run``) and prints
 the escape time tau, ``D_rw``, the measured ``r = E_y / E_x`` and ``D_a`` with it,
 the truncated Green-Kubo ``D_n`` (n = 0..nmax) with bootstrap errors, the Einstein
 D with its standard error, and ``p_f``, ``p_b`` (docs/model.md, section 4).  When no
@@ -63,7 +63,7 @@ def trapped_reason(n_jumps: int, gamma: float) -> str:
 def gk_summary(args) -> dict:
     """Run ``gk_run`` as described by ``args``; the printed quantities as a JSON-ready dict."""
     from bbdyn import __version__
-    from bbdyn.gk_scan import gk_numbers, gk_run
+    from bbdyn.scans.green_kubo import gk_numbers, gk_run
 
     params = params_from(args)
     bar = run_progress("gk", args.t, args.json)

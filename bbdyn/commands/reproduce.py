@@ -1,41 +1,19 @@
 """``bbdyn reproduce [--quick|--medium|--full] [--out DIR] [--only ID ...]`` and
 ``bbdyn reproduce --docs [--only ID ...]``: scenes with an index page, or the figures of docs/."""
 
-from bbdyn.commands import seed
+from bbdyn.commands import add_setting_arguments, seed
 
 HELP = "run every available scene and write figures, their data and an index page to a folder"
 
 
 def add_arguments(parser) -> None:
-    mode = parser.add_mutually_exclusive_group()
-    mode.add_argument(
-        "--quick",
-        dest="setting",
-        action="store_const",
-        const="quick",
-        help="quick settings (default)",
-    )
-    mode.add_argument(
-        "--medium",
-        dest="setting",
-        action="store_const",
-        const="medium",
-        help="medium settings (only scenes that have one)",
-    )
-    mode.add_argument(
-        "--full",
-        dest="setting",
-        action="store_const",
-        const="full",
-        help="full (reference paper) settings",
-    )
+    mode = add_setting_arguments(parser)
     mode.add_argument(
         "--docs",
         action="store_true",
         help="make the figures of docs/figures, each at its documented setting, and "
         "rewrite the figure table of docs/results.md (resumable)",
     )
-    parser.set_defaults(setting="quick")
     parser.add_argument(
         "--out", help="output folder (default: out; not with --docs, which writes docs/figures)"
     )
@@ -46,7 +24,7 @@ def add_arguments(parser) -> None:
 
 
 def run(args) -> int:
-    from bbdyn.reproduce import reproduce, reproduce_docs
+    from bbdyn.scenes.reproduce import reproduce, reproduce_docs
 
     if args.docs:
         if args.out is not None:

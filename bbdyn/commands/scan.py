@@ -1,7 +1,7 @@
 """`bbdyn scan --f-start 49.8 --f-stop 95 --f-step 0.2 --n 1000 --t 200 --out DIR`: D(f) and E(f).
 
-Runs ``bbdyn.frequency_scan.diffusion_point`` at every frequency of the grid with
-``bbdyn.scan.run_scan``: each finished frequency is stored at once in ``DIR``;
+Runs ``bbdyn.scans.frequency.diffusion_point`` at every frequency of the grid with
+``bbdyn.scans.runner.run_scan``: each finished frequency is stored at once in ``DIR``;
 ``--resume`` finishes an interrupted scan.  Prints one line per frequency (D with
 its standard error, E, E_x, flags) or, with ``--json``, one JSON object.  The model
 parameters other than f are options as in every command (``--A --alpha --beta --R --d``).
@@ -100,8 +100,8 @@ def run(args) -> int:
     import sys
     import warnings
 
-    from bbdyn.frequency_scan import check_scan_size, frequency_grid, frequency_scan, grid_size
-    from bbdyn.scan import ScanBusyError, ScanStorageError, SchedulerUnreachableError
+    from bbdyn.scans.frequency import check_scan_size, frequency_grid, frequency_scan, grid_size
+    from bbdyn.scans.runner import ScanBusyError, ScanStorageError, SchedulerUnreachableError
 
     # size and arguments first: a refused scan allocates and writes nothing
     count = grid_size(args.f_start, args.f_stop, args.f_step)

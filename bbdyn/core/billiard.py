@@ -83,7 +83,10 @@ from bbdyn.core.status import (
 )
 from bbdyn.core.tolerances import (
     CHATTER_REL_TOL,
+    DEPARTURE_MARGIN,
+    DEPARTURE_MAX_TRIES,
     DEPARTURE_REL_TOL,
+    DEPARTURE_SHRINK,
     EPS,
     ROOT_MAX_STEPS,
     ROOT_STEP_REL,
@@ -169,7 +172,7 @@ def tangent_departure(sn, xi0, S0, vx, tc, kp):
     With ``G''(0) = -g - A w^2 sin(theta) + R^2 vx^2 / S0^3 > 0`` (the convex arc
     falls away faster than the particle), ``G(tau) >= G''(0) tau^2/2 - J tau^3/6``
     with ``J = A w^3 + 3 R^2 |xi|_max |vx|^3 / S_min^5`` bounding |G'''| on the tile
-    segment; the returned ``tau <= tc`` has ``J tau < 1.5 G''(0)``, hence
+    segment; the returned ``tau <= tc`` has ``J tau < DEPARTURE_MARGIN G''(0)`` (1.5), hence
     ``G > 0`` for 0 < t <= tau.  Returns 0 if ``G''(0) <= 0`` (it cannot leave).
     """
     A, w, R = kp.A, kp.w, kp.R
@@ -178,13 +181,13 @@ def tangent_departure(sn, xi0, S0, vx, tc, kp):
     if not G2 > 0.0:
         return 0.0
     tau = tc if tc < math.inf else 1.0 / w
-    for _ in range(64):
+    for _ in range(DEPARTURE_MAX_TRIES):
         xm = min(max(abs(xi0), abs(xi0 + vx * tau)), half)
         Sm = arc_root(xm, kp)
         J = A * w * w * w + 3.0 * R * R * xm * abs(vx) ** 3 / Sm**5
-        if J * tau < 1.5 * G2:
+        if J * tau < DEPARTURE_MARGIN * G2:
             return tau
-        tau = min(0.5 * tau, 1.4 * G2 / J)
+        tau = min(0.5 * tau, DEPARTURE_SHRINK * G2 / J)
     return 0.0
 
 

@@ -69,7 +69,13 @@ from bbdyn.core.status import (
     STICK,
     STUCK_FOREVER,
 )
-from bbdyn.core.tolerances import CHATTER_REL_TOL, EPS, ROOT_MAX_STEPS, ROOT_STEP_REL
+from bbdyn.core.tolerances import (
+    CHATTER_REL_TOL,
+    EPS,
+    RELEASE_WINDOW_PAD,
+    ROOT_MAX_STEPS,
+    ROOT_STEP_REL,
+)
 
 
 @njit(cache=True, inline="always", error_model="numpy")
@@ -172,7 +178,7 @@ def flat_flight_tol(phase, vrel, kp, step_rel):
     tau = 0.0
     G, Gp, sn, cn = 0.0, vrel, s0, c0
     # Cheap superset of the release window sin(phase) < -1/Gamma before the asin.
-    if kp.gamma * s0 < -1.0 + 1e-9:
+    if kp.gamma * s0 < -1.0 + RELEASE_WINDOW_PAD:
         theta_r, theta_e = release_window(kp.gamma)
     else:
         theta_r, theta_e = -1.0, -1.0

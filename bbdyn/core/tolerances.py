@@ -105,3 +105,19 @@ DOT_ROUND_PER_TERM = EPS
 #: bound holds for K times the change of a running sum over one cycle (the change carries the
 #: roundings of that cycle's additions), so the two ways differ by at most twice this.
 SUM_ROUND_PER_TERM = EPS
+
+#: ``tangent_departure`` (core/billiard.py) certifies a clear start of a flight that leaves
+#: tangentially with the lower bound ``G(tau) >= G''(0) tau^2 / 2 - J tau^3 / 6``, positive
+#: for ``J tau < 3 G''(0)``.  It accepts ``J tau < DEPARTURE_MARGIN G''(0)`` (half of that
+#: bound, so rounding of J and G'' cannot matter), otherwise retries with
+#: ``tau = DEPARTURE_SHRINK G''(0) / J`` (inside the margin) or half of tau, at most
+#: ``DEPARTURE_MAX_TRIES`` times (each try halves tau at least: 2^-64 of a period is
+#: far below rounding).
+DEPARTURE_MARGIN = 1.5
+DEPARTURE_SHRINK = 1.4
+DEPARTURE_MAX_TRIES = 64
+
+#: ``flat_flight_tol`` (core/flat.py) computes the release window ``sin(phase) < -1/Gamma``
+#: only when ``Gamma sin(phase) < -1 + RELEASE_WINDOW_PAD``: a cheap superset test, padded
+#: so that rounding of ``Gamma sin(phase)`` never skips a phase inside the window.
+RELEASE_WINDOW_PAD = 1e-9

@@ -1,13 +1,18 @@
-"""Scenes: one module per figure or analysis of the reference paper (S1-S10) and beyond (B1, B3).
+"""Scenes: one module per figure or analysis, of the reference paper (S1-S10) and beyond
+(B1-B6, the benchmarks B2 included); ``SCENES`` is the one registry that ``bbdyn scene``,
+``bbdyn bench`` and ``bbdyn reproduce`` read.
 
 Each scene module defines
 
 * ``TITLE``: one line;
 * ``QUICK`` and ``FULL`` (and optionally ``MEDIUM``): dicts of settings (quick: seconds
   to a minute on 2 cores); ``SETTINGS`` names them;
-* ``compute(settings, seed[, out_dir]) -> Result``: computes only what the figure needs
-  (scenes built on frequency scans take ``out_dir`` and keep their scan there);
-* ``draw(result, ax=None)``: draws a saved or fresh result, returns the figure.
+* ``compute(settings[, seed][, out_dir]) -> Result``: computes only what the figure
+  needs; it names ``seed`` if it draws random numbers and ``out_dir`` if it keeps
+  intermediate data (the scans of ``bbdyn.scans.cache``) there;
+* ``draw(result) -> Figure`` (single-panel scenes also take ``ax``): draws a saved or
+  fresh result;
+* optionally ``table(result) -> str``: the numbers as a text table (benchmarks).
 
 ``run_scene`` computes, saves the numbers (``<name>.npz`` / ``<name>.json``) and the
 figure (``<name>.png``) side by side, so a figure can be redrawn from its data with
@@ -39,6 +44,9 @@ SCENES = {
     "S5": "s5_horizontal_energy",
     "S9": "s9_random_walk",
     "S10": "s10_green_kubo",
+    "B2-FLAT": "b2_flat",
+    "B2-BILLIARD": "b2_billiard",
+    "B2-SCAN-COST": "b2_scan_cost",
     "B3": "b3_statcost",
     "B5": "b5_lyapunov",
     "B4": "b4_higher_tongues",
@@ -80,6 +88,13 @@ def scene_settings(scene_id: str, setting: str) -> dict:
             f"scene {scene_id.upper()} has no setting {setting!r}; it has: {', '.join(have)}"
         )
     return dict(getattr(module, SETTINGS[setting]))
+
+
+def call_compute(module, settings: dict, seed: int, out_dir: str | Path):
+    """``module.compute(settings, ...)`` with ``seed`` and ``out_dir`` passed when it names them."""
+    accepts = inspect.signature(module.compute).parameters
+    given = {"seed": seed, "out_dir": Path(out_dir)}
+    return module.compute(settings, **{k: v for k, v in given.items() if k in accepts})
 
 
 def _git(root: Path, *args: str) -> str:
@@ -161,26 +176,25 @@ def run_scene(
     seed: int = 0,
     name: str | None = None,
     scan_root: str | Path | None = None,
+    overrides: dict | None = None,
 ):
     """Compute scene ``scene_id`` at ``setting``, save its numbers and figure in ``out_dir``.
 
     Files are ``<name>.npz/.json/.png`` (``name`` defaults to the scene id).  Scenes built
     on scans keep them under ``scan_root`` (default ``out_dir``), so an interrupted run
-    resumes.  Returns ``(result, png_path)``.
+    resumes.  ``overrides`` replaces some values of the setting (they are recorded).
+    Returns ``(result, png_path)``.
     """
     import matplotlib
 
     matplotlib.use("Agg")
 
     module = scene_module(scene_id)
-    settings = scene_settings(scene_id, setting)
+    settings = scene_settings(scene_id, setting) | (overrides or {})
     out_dir = Path(out_dir)
     source = source_state()  # the code as it is when the run starts
     start = time.perf_counter()
-    if "out_dir" in inspect.signature(module.compute).parameters:
-        result = module.compute(settings, seed, out_dir=out_dir if scan_root is None else scan_root)
-    else:
-        result = module.compute(settings, seed)
+    result = call_compute(module, settings, seed, out_dir if scan_root is None else scan_root)
     run_s = time.perf_counter() - start
     prov = provenance(scene_id, setting, settings, seed, run_s, source)
     result.meta.update(

@@ -1,6 +1,6 @@
 """Scene B1: regime map -- regime label, number of attractors and basin fractions against f.
 
-Each frequency is one point of a resumable, parallel ``bbdyn.scan.run_scan``;
+Each frequency is one point of a resumable, parallel ``bbdyn.scans.runner.run_scan``;
 ``regime_point`` runs ``bbdyn.classify.classify`` on the reference box there.
 """
 
@@ -70,15 +70,16 @@ class SceneB1Result(Result):
 def compute(settings: dict, seed: int = 0, out_dir=None) -> SceneB1Result:
     """Classify the reference box at ``n_f`` frequencies in ``[f_min, f_max]`` (one scan).
 
-    The scan is kept (resumable) in ``bbdyn.scan.settings_folder("regime", ...)`` under
+    The scan is kept (resumable) in ``bbdyn.scans.cache.scene_folder("regime", ...)`` under
     ``out_dir``, or in ``settings["scan_dir"]``.
     """
-    from bbdyn.scan import run_scan, settings_folder
+    from bbdyn.scans.cache import scene_folder
+    from bbdyn.scans.runner import run_scan
 
     start = time.perf_counter()
     freqs = np.round(np.linspace(settings["f_min"], settings["f_max"], settings["n_f"]), 6)
     point = functools.partial(regime_point, n=int(settings["n"]), t=float(settings["t"]))
-    folder = settings_folder("regime", settings, ("f_min", "f_max", "n_f", "n", "t"), seed, out_dir)
+    folder = scene_folder("regime", settings, seed, out_dir)
     progress = settings.get("progress", False)
     scan = run_scan(freqs.tolist(), point, out_dir=folder, seed=seed,
                     workers=settings["workers"], progress=progress)  # fmt: skip

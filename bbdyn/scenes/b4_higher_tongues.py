@@ -6,7 +6,7 @@ continuation of the exact map, ``bbdyn.continuation.cascade``) and the stable
 intervals of k/m orbits (from the saddle-node to the first doubling, found by
 continuation of orbits located by Newton, ``bbdyn.continuation.km_regions``).
 Right: a bifurcation diagram at one alpha (impact phases against Gamma) from
-direct iteration of the exact map (``core.flat.flat_run``), with the doublings
+direct iteration of the exact map (``bbdyn.continuation.bifurcation_diagram``), with the doublings
 found by continuation as dashed lines.  Everything is dimensionless (the map
 depends on Gamma and alpha only).
 """
@@ -17,13 +17,10 @@ import time
 
 import numpy as np
 
-from bbdyn.continuation import cascade, km_regions, unit_kernel
-from bbdyn.core.flat import flat_run
-from bbdyn.core.plate import TWO_PI
-from bbdyn.core.status import IMPACT, OK
+from bbdyn.continuation import bifurcation_diagram, cascade, km_regions
 from bbdyn.results import Result, make_meta
 from bbdyn.scenes import figure_axes
-from bbdyn.tongues import k1_cos_phase, tongue_gamma_hi, tongue_gamma_lo
+from bbdyn.tongues import tongue_gamma_hi, tongue_gamma_lo
 
 TITLE = "Higher-order tongues k/m and period-doubling cascades of the k/1 orbits (exact map)"
 QUICK = {
@@ -111,35 +108,15 @@ def _km(settings) -> dict:
     return {n: np.array(c, dtype=float) for n, c in zip(names, cols, strict=True)}
 
 
-def _diagram(settings) -> tuple[np.ndarray, np.ndarray]:
-    """Impact phases after a transient, sweeping Gamma up and starting each Gamma from
-    the last state of the previous one (the first from the stable 1/1 orbit)."""
-    alpha = float(settings["diagram_alpha"])
-    gammas = np.linspace(*settings["diagram_gamma"], int(settings["n_gamma"]))
-    transient, record = int(settings["transient"]), int(settings["record"])
-    lo = tongue_gamma_lo(1, alpha)
-    g0 = min(max(gammas[0], lo), tongue_gamma_hi(1, alpha))
-    theta = TWO_PI - np.arccos(k1_cos_phase(1, g0, alpha))
-    state = (0.0, float(theta), 2 * alpha * np.pi / (1 + alpha), IMPACT)
-    phases = np.full((len(gammas), record), np.nan)
-    n = transient + record
-    for i, gamma in enumerate(gammas):
-        kp = unit_kernel(float(gamma), alpha)
-        out = [np.zeros(n), np.zeros(n), np.zeros(n), np.zeros(n, dtype=np.int64)]
-        done, status = flat_run(*state, kp, *out)
-        if status != OK or done < n:
-            continue
-        kinds = out[3][transient:]
-        phases[i] = np.where(kinds == IMPACT, out[1][transient:], np.nan)
-        state = (0.0, float(out[1][-1]), float(out[2][-1]), int(out[3][-1]))
-    return gammas, phases
-
-
 def compute(settings: dict, seed: int = 0) -> SceneB4Result:
     """Cascades on the alpha grid, k/m intervals, and the direct-iteration diagram."""
     start = time.perf_counter()
     doublings, reasons = _doublings(settings)
-    diag_gamma, diag_phase = _diagram(settings)
+    diag_gamma = np.linspace(*settings["diagram_gamma"], int(settings["n_gamma"]))
+    diag_phase = bifurcation_diagram(
+        diag_gamma, float(settings["diagram_alpha"]), int(settings["transient"]),
+        int(settings["record"]),
+    )  # fmt: skip
     a = float(settings["diagram_alpha"])
     diag_doublings = np.full((int(settings["kmax"]), int(settings["levels"])), np.nan)
     for i in range(int(settings["kmax"])):
@@ -203,5 +180,5 @@ def _draw_diagram(result, ax):
         for x in result["diag_doublings"][i]:
             if np.isfinite(x) and g[0] <= x <= g[-1]:
                 ax.axvline(x, color="r", lw=0.5, ls="--")
-    ax.set(xlabel=r"$\Gamma$", ylabel="impact phase (rad)", xlim=(g[0], g[-1]), ylim=(0, TWO_PI))
+    ax.set(xlabel=r"$\Gamma$", ylabel="impact phase (rad)", xlim=(g[0], g[-1]), ylim=(0, 2 * np.pi))
     ax.set_title(f"direct iteration, alpha = {result.meta['diagram_alpha']}; dashed: continuation")

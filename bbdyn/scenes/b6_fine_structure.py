@@ -1,20 +1,21 @@
 """Scene B6: fine structure of D(f) on nested frequency grids (issue 14; docs/fine_structure.md).
 
-Around each centre frequency, D(f) (``bbdyn.frequency_scan.diffusion_point``, error
+Around each centre frequency, D(f) (``bbdyn.scans.frequency.diffusion_point``, error
 bars one standard error over particles) on levels of decreasing step (a window of
-``points`` frequencies per level).  Per level, ``bbdyn.finestructure.level_test``
+``points`` frequencies per level).  Per level, ``bbdyn.scans.fine_structure.level_test``
 asks whether neighbouring values differ more than their errors allow (beyond a
 linear trend across the window) and gives the noise-corrected mean squared
 increment S2; where S2 is resolved on two or more levels, its log-log slope against
 the step gives a Hoelder-type exponent H (S2 ~ step^(2 H)).
 
-All points of a setting form one resumable scan (``bbdyn.scan.run_scan``) kept under
-``out_dir`` (``scan_folder``).  ``settings["scheduler"]`` (a dask scheduler address
-or client), else the environment variable ``BBDYN_SCHEDULER``, runs it on a cluster
+All points of a setting form one resumable scan (``bbdyn.scans.runner.run_scan``) kept
+under ``out_dir`` (``bbdyn.scans.cache.scene_folder("finestructure", ...)``).
+``settings["scheduler"]`` (a dask scheduler address or client), else the environment
+variable ``BBDYN_SCHEDULER``, runs it on a cluster
 (``BBDYN_SCHEDULER=tcp://host:8786 bbdyn scene B6 --full``); ``settings["workers"]``
 sets the local processes.  Neither enters the scan folder's name: a scan started
 locally can be finished on a cluster and gives the same numbers (seeds depend on the
-frequency only, ``bbdyn.scan``).
+frequency only, ``bbdyn.scans.runner``).
 """
 
 from __future__ import annotations
@@ -26,9 +27,10 @@ import time
 
 import numpy as np
 
-from bbdyn import finestructure as fs
 from bbdyn.params import Params
 from bbdyn.results import Result, make_meta
+from bbdyn.scans import fine_structure as fs
+from bbdyn.scans.cache import scene_folder
 
 TITLE = "Fine structure of D(f): nested grids around chosen frequencies, scaling of increments"
 _STEPS = (0.2, 0.05, 0.01, 0.002)
@@ -40,7 +42,6 @@ MEDIUM = {"centres": (85.2,), "steps": _STEPS, "points": 21, "n": 15000, "t": 20
 FULL = {"centres": (58.0, 70.0, 85.2, 89.0), "steps": _STEPS, "points": 21, "n": 40000,
         "t": 20.0}  # fmt: skip
 #: settings that define the scan (and its folder)
-SCAN_KEYS = ("centres", "steps", "points", "n", "t")
 #: environment variable naming a dask scheduler for the scan (when settings name none)
 SCHEDULER_VARIABLE = "BBDYN_SCHEDULER"
 #: bootstrap resamples per point (the bootstrap is only a cross-check of D_err)
@@ -74,17 +75,10 @@ def grid_points(settings: dict) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     return f, c.astype(int), lv.astype(int)
 
 
-def scan_folder(settings: dict, seed: int, out_dir=None):
-    """Folder of the scan of ``settings``: ``<out_dir>/scans/finestructure_<digest>``."""
-    from bbdyn.scan import settings_folder
-
-    return settings_folder("finestructure", settings, SCAN_KEYS, seed, out_dir)
-
-
 def run_points(settings: dict, seed: int, out_dir=None):
     """The scan of all grid points of ``settings`` (computed, resumed or loaded)."""
-    from bbdyn.frequency_scan import check_scan_size, diffusion_point
-    from bbdyn.scan import run_scan
+    from bbdyn.scans.frequency import check_scan_size, diffusion_point
+    from bbdyn.scans.runner import run_scan
 
     f, _, _ = grid_points(settings)
     values = np.unique(f)
@@ -94,7 +88,7 @@ def run_points(settings: dict, seed: int, out_dir=None):
     return run_scan(
         values.tolist(),
         compute,
-        out_dir=scan_folder(settings, seed, out_dir),
+        out_dir=scene_folder("finestructure", settings, seed, out_dir),
         seed=seed,
         workers=settings.get("workers"),
         scheduler=settings.get("scheduler") or os.environ.get(SCHEDULER_VARIABLE) or None,

@@ -1,12 +1,12 @@
 """Scene S10: truncated Green-Kubo D_n against the Einstein D on a fine grid (docs/model.md §4).
 
-Per frequency in [84.6, 86.4] Hz (``bbdyn.gk_scan.gk_point``): the Einstein D of the
+Per frequency in [84.6, 86.4] Hz (``bbdyn.scans.green_kubo.gk_point``): the Einstein D of the
 reference ensemble and ``D_n = (1/tau)(<h_0^2>/2 + sum_{k=1..n} <h_0 h_k>)`` for
 n = 0..nmax from the jumps of the same simulation, with bootstrap errors.  Drawn:
 D and D_n for n in ``orders`` (0, 2, 4, 7 and nmax); key numbers: how close each
 order comes to D over the grid.
 
-The scan points are kept on disk (``bbdyn.gk_scan.gk_scan_folder``), so an interrupted
+The scan points are kept on disk (``bbdyn.scans.cache.scene_folder("gk", ...)``), so an interrupted
 full run resumes where it stopped.
 """
 
@@ -41,7 +41,7 @@ class SceneS10Result(Result):
 
 def compute(settings: dict, seed: int = 0, out_dir=None) -> SceneS10Result:
     """Scan ``settings`` (grid in Hz, ``n``, ``t`` s, ``nmax``, ``orders``); the scan is kept
-    in ``bbdyn.gk_scan.gk_scan_folder(settings, seed, out_dir)``, so a rerun resumes it."""
+    in ``bbdyn.scans.cache.scene_folder("gk", settings, seed, out_dir)``, so a rerun resumes it."""
     from bbdyn import Params
 
     start = time.perf_counter()

@@ -1,7 +1,7 @@
 """Scene S2: a sketch of the billiard (docs/model.md §2), vertical scale exaggerated.
 
 Three tiles of the floor of circular arcs at its mean position and at its
-extreme positions y_p = +-A, from the geometry kernels of ``bbdyn.core.floor``;
+extreme positions y_p = +-A, from the floor geometry of ``bbdyn.billiard``;
 a particle leaving an arc point at arc length s with velocity (vx, vy);
 gravity g and the drive y_p(t) = -A sin(w t).  No randomness.
 """
@@ -12,7 +12,7 @@ import time
 
 import numpy as np
 
-from bbdyn.core.floor import arc_coordinates, xi_from_arc_length
+from bbdyn.billiard import floor_profile, xi_at_arc_length
 from bbdyn.params import Params
 from bbdyn.results import Result, make_meta
 from bbdyn.scenes import figure_axes
@@ -38,21 +38,20 @@ def compute(settings: dict, seed: int = 0) -> SceneS2Result:
     """Floor profile over ``tiles`` tiles and a marked arc point at ``s_frac * s_max`` on tile 1."""
     start = time.perf_counter()
     params = Params(f=float(settings["f"]))
-    kp = params.kernel()
     tiles, points = int(settings["tiles"]), int(settings["points"])
-    xi = np.linspace(-0.5 * kp.d, 0.5 * kp.d, points)
-    s_all, b = arc_coordinates(xi, kp)
-    x = np.concatenate([(tile + 0.5) * kp.d + xi for tile in range(tiles)])
+    xi = np.linspace(-0.5 * params.d, 0.5 * params.d, points)
+    s_all, b = floor_profile(params, xi)
+    x = np.concatenate([(tile + 0.5) * params.d + xi for tile in range(tiles)])
     s_mark = float(settings["s_frac"]) * params.s_max
-    xi_mark = xi_from_arc_length(s_mark, kp)
+    xi_mark = xi_at_arc_length(params, s_mark)
     on_arc = s_all <= s_mark
-    _, (b_mark,) = arc_coordinates(np.array([xi_mark]), kp)
+    _, (b_mark,) = floor_profile(params, [xi_mark])
     arrays = {
         "x": x,
         "b": np.tile(b, tiles),
-        "s_x": 1.5 * kp.d + xi[on_arc],
+        "s_x": 1.5 * params.d + xi[on_arc],
         "s_b": b[on_arc],
-        "point": np.array([1.5 * kp.d + xi_mark, b_mark, s_mark]),
+        "point": np.array([1.5 * params.d + xi_mark, b_mark, s_mark]),
     }
     meta = make_meta(
         params,

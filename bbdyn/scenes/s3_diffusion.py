@@ -1,8 +1,8 @@
 """Scene S3: the diffusion coefficient D(f) with error bars, k/1 tongues marked on top.
 
 D is the late-window Einstein slope of the reference ensemble (docs/model.md §3,
-``bbdyn.frequency_scan.diffusion_point``), error bars one standard error over
-particles.  S3, S4 and S5 read one shared scan (``bbdyn.frequency_scan.scene_scan``),
+``bbdyn.scans.frequency.diffusion_point``), error bars one standard error over
+particles.  S3, S4 and S5 read one shared scan (``bbdyn.scans.cache.diffusion_scan``),
 computed once per setting and seed.  ``draw(result, regimes=b1)`` also shades the
 regime bands of a regime map (scene B1).
 """
@@ -11,9 +11,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from bbdyn.frequency_scan import FrequencyScanScene, scene_scan
 from bbdyn.params import Params
+from bbdyn.scans.cache import diffusion_scan
 from bbdyn.scenes import figure_axes
+from bbdyn.scenes.frequency_scene import FrequencyScanScene
 
 TITLE = "Diffusion coefficient D(f) with standard errors and the k/1 tongues"
 QUICK = {"f_start": 49.8, "f_stop": 95.0, "f_step": 1.0, "n": 100, "t": 20.0}
@@ -22,7 +23,7 @@ FULL = {"f_start": 49.8, "f_stop": 95.0, "f_step": 0.2, "n": 1000, "t": 200.0}
 
 def compute(settings: dict, seed: int = 0, out_dir=None) -> FrequencyScanScene:
     """The shared scan of ``settings`` (computed or loaded) with S3's key numbers."""
-    scene = FrequencyScanScene.from_scan(scene_scan(settings, seed, out_dir), Params(f=60.0))
+    scene = FrequencyScanScene.from_scan(diffusion_scan(settings, seed, out_dir), Params(f=60.0))
     scene.meta["key_numbers"] = key_numbers(scene)
     return scene
 

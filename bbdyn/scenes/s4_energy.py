@@ -9,9 +9,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from bbdyn.frequency_scan import FrequencyScanScene, scene_scan
 from bbdyn.params import Params
+from bbdyn.scans.cache import diffusion_scan
 from bbdyn.scenes import figure_axes
+from bbdyn.scenes.frequency_scene import FrequencyScanScene
 from bbdyn.scenes.s3_diffusion import FULL, QUICK
 
 TITLE = "Steady-state energy E(f) and the line A^2 w^2 / 2"
@@ -20,7 +21,7 @@ __all__ = ["TITLE", "QUICK", "FULL", "compute", "draw"]
 
 def compute(settings: dict, seed: int = 0, out_dir=None) -> FrequencyScanScene:
     """The shared scan of ``settings`` with S4's key numbers."""
-    scene = FrequencyScanScene.from_scan(scene_scan(settings, seed, out_dir), Params(f=60.0))
+    scene = FrequencyScanScene.from_scan(diffusion_scan(settings, seed, out_dir), Params(f=60.0))
     ratio = scene["E"] / scene["E_reference"]
     moving = scene["trapped"] == 0
     scene.meta["key_numbers"] = {

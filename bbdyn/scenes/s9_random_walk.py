@@ -1,13 +1,13 @@
 """Scene S9: Einstein D against the random-walk approximations D_rw and D_a (docs/model.md §4).
 
-For f above 65.6 Hz, per frequency (``bbdyn.gk_scan.gk_point``): the Einstein D of
+For f above 65.6 Hz, per frequency (``bbdyn.scans.green_kubo.gk_point``): the Einstein D of
 the reference ensemble, ``D_rw = d^2 / (2 tau)`` with the escape time tau from the
 same simulation, and the analytic ``D_a = (d/2) sqrt((A^2 w^2 - 2 g A) / (1 + r))``
 with the energy ratio ``r = E_y / E_x`` measured there (drawn in a second panel).
 ``D_a`` does not exist for Gamma < 2 (f < 70.46 Hz at the defaults): the energy
 balance leaves no kinetic energy; those frequencies are shaded and counted, not filled.
 
-The scan points are kept on disk (``bbdyn.gk_scan.gk_scan_folder``), so an interrupted
+The scan points are kept on disk (``bbdyn.scans.cache.scene_folder("gk", ...)``), so an interrupted
 full run resumes where it stopped.
 """
 
@@ -41,7 +41,7 @@ class SceneS9Result(Result):
 
 def scan_points(settings: dict, seed: int, out_dir, *, keys):
     """The ``keys`` outputs of ``gk_scene_scan`` (computed or resumed), sorted by f."""
-    from bbdyn.gk_scan import gk_scene_scan
+    from bbdyn.scans.cache import gk_scene_scan
 
     scan = gk_scene_scan(settings, seed, out_dir)
     order = np.argsort(scan.values)
@@ -53,7 +53,7 @@ def scan_points(settings: dict, seed: int, out_dir, *, keys):
 def compute(settings: dict, seed: int = 0, out_dir=None) -> SceneS9Result:
     """Scan the frequencies of ``settings`` (``f_start``, ``f_stop``, ``f_step`` in Hz, ``n``
     particles, ``t`` s) and collect D, D_rw, D_a, r; the scan is kept in
-    ``bbdyn.gk_scan.gk_scan_folder(settings, seed, out_dir)``, so a rerun resumes it."""
+    ``bbdyn.scans.cache.scene_folder("gk", settings, seed, out_dir)``, so a rerun resumes it."""
     from bbdyn import Params
 
     start = time.perf_counter()

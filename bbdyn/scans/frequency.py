@@ -1,7 +1,7 @@
 """Diffusion coefficient and steady-state energies across frequency (issue 4, docs/model.md §3).
 
 ``diffusion_point(f, seed_sequence, n=..., t=...)`` is the compute function of a
-frequency scan (``bbdyn.scan.run_scan``): one reference ensemble at ``f``, and
+frequency scan (``bbdyn.scans.runner.run_scan``): one reference ensemble at ``f``, and
 every number S3, S4 and S5 draw, each with its standard error and the evidence
 that it has converged.  ``frequency_scan`` runs it over a grid of frequencies.
 
@@ -26,19 +26,16 @@ from __future__ import annotations
 
 import functools
 import math
-from pathlib import Path
 
 import numpy as np
 
 from bbdyn.core.status import STUCK_FOREVER
 from bbdyn.params import Params
-from bbdyn.progress import rough_duration
-from bbdyn.results import Result, make_meta
+from bbdyn.scans.progress import rough_duration
 
 __all__ = [
     "MAX_POINTS",
     "P_FLAG",
-    "FrequencyScanScene",
     "check_scan_size",
     "diffusion_fit",
     "diffusion_point",
@@ -46,8 +43,6 @@ __all__ = [
     "frequency_scan",
     "grid_size",
     "point_bytes",
-    "scene_scan",
-    "tongue_intervals",
 ]
 
 #: p-value below which a convergence check raises its flag.  Over a 227-point scan
@@ -208,7 +203,7 @@ def diffusion_point(
     f : float
         Driving frequency (Hz).
     seed_sequence : numpy.random.SeedSequence
-        The point's seed (``bbdyn.scan.point_seed``): initial conditions and bootstrap.
+        The point's seed (``bbdyn.scans.runner.point_seed``): initial conditions and bootstrap.
     n : int
         Particles of the reference ensemble (docs/model.md §3), >= 2.
     t : float
@@ -370,7 +365,7 @@ def frequency_scan(
     progress=True,
     model: dict | None = None,
 ):
-    """Run ``diffusion_point`` over ``frequencies`` with ``bbdyn.scan.run_scan``.
+    """Run ``diffusion_point`` over ``frequencies`` with ``bbdyn.scans.runner.run_scan``.
 
     ``model`` sets parameters other than f (``A``, ``alpha``, ``beta``, ``R``, ``d``);
     only those that differ from the ``Params`` defaults become arguments of the scan, so
@@ -380,7 +375,7 @@ def frequency_scan(
     before anything is written.  Every finished frequency is stored in ``out_dir`` at once;
     run again with the same arguments to resume.  Returns the ``ScanResult`` (docs/scans.md).
     """
-    from bbdyn.scan import run_scan
+    from bbdyn.scans.runner import run_scan
 
     freqs = [float(f) for f in frequencies]
     changes = _model_changes(model or {})
@@ -402,131 +397,3 @@ def frequency_scan(
         scheduler=scheduler,
         progress=progress,
     )
-
-
-# ---- the scan shared by scenes S3, S4 and S5 ------------------------------------------------
-#: Outputs of a scan that the scenes keep (scalars per frequency).
-SCENE_KEYS = (
-    "gamma",
-    "D",
-    "D_err",
-    "D_boot_lo",
-    "D_boot_hi",
-    "D_converged",
-    "trapped",
-    "E",
-    "E_err",
-    "E_x",
-    "E_x_err",
-    "E_y",
-    "E_y_err",
-    "E_pot",
-    "E_pot_err",
-    "E_reference",
-    "energy_stationary",
-    "stuck_fraction",
-    "collision_rate",
-    "events",
-)
-
-
-def scan_folder(settings: dict, seed: int, out_dir=None) -> Path:
-    """Folder of the scan of an S3-S5 setting: ``<out_dir>/scans/diffusion_<digest>``
-    (``bbdyn.scan.settings_folder`` over the grid, n, t and transient); S3, S4 and S5
-    with the same setting share it.  With ``settings["partial"]`` true, the finished
-    points of an explicit ``settings["scan_dir"]`` are enough."""
-    from bbdyn.scan import settings_folder
-
-    keys = ("f_start", "f_stop", "f_step", "n", "t", "transient")
-    return settings_folder("diffusion", settings, keys, seed, out_dir)
-
-
-def scene_scan(settings: dict, seed: int, out_dir=None):
-    """The scan of a scene setting: loaded if finished, else computed (or resumed)."""
-    folder = scan_folder(settings, seed, out_dir)
-    if settings.get("scan_dir"):
-        from bbdyn.scan import load_scan
-
-        return load_scan(folder, partial=bool(settings.get("partial", False)))
-    grid = frequency_grid(settings["f_start"], settings["f_stop"], settings["f_step"])
-    return frequency_scan(
-        grid,
-        out_dir=folder,
-        seed=seed,
-        n=settings["n"],
-        t=settings["t"],
-        transient=settings.get("transient"),
-        workers=settings.get("workers"),
-        progress=settings.get("progress", False),
-    )
-
-
-def tongue_intervals(params: Params, f_lo: float, f_hi: float, kmax: int = 6) -> np.ndarray:
-    """k/1 tongue intervals of the flat ball (closed form) meeting ``[f_lo, f_hi]``, Hz.
-
-    Returns
-    -------
-    array, shape (m, 3)
-        Rows ``(k, f_start, f_stop)``.
-    """
-    from bbdyn.tongues import tongue_table
-
-    table = tongue_table(params.alpha, kmax, params.A, params.g, numeric=False)
-    rows = [
-        (float(k), float(a), float(b))
-        for k, a, b in zip(table["k"], table["f_lo_hz"], table["f_hi_hz"], strict=True)
-        if b >= f_lo and a <= f_hi
-    ]
-    return np.array(rows).reshape(-1, 3)
-
-
-class FrequencyScanScene(Result):
-    """Scalars of a frequency scan for scenes S3-S5 (arrays ``f`` and ``SCENE_KEYS``, each
-    (n_f,)) with the k/1 tongue intervals ``tongues`` (m, 3): ``(k, f_lo, f_hi)`` in Hz."""
-
-    kind = "frequency_scan_scene"
-
-    @classmethod
-    def from_scan(cls, scan, params: Params, **meta) -> FrequencyScanScene:
-        """Keep the scenes' outputs of ``scan`` and add the tongue intervals."""
-        f = scan.values
-        arrays = {"f": f} | {k: scan[k] for k in SCENE_KEYS}
-        arrays["tongues"] = tongue_intervals(params, float(f.min()), float(f.max()))
-        cpu = float(sum(p["wall_s"] for p in scan.meta["points"]))
-        return cls(
-            arrays,
-            make_meta(
-                params,
-                scan_seed=scan.meta["seed"],
-                scan_compute=scan.meta["compute"],
-                scan_cpu_s=cpu,
-                events_per_cpu_s=float(np.sum(scan["events"]) / cpu) if cpu else math.nan,
-                **meta,
-            ),
-        )
-
-    def plot(self, ax=None, key: str = "D"):
-        """``key`` (``"D"``, ``"E"``, ``"E_x"``, ...) against f with error bars; the axes."""
-        import matplotlib.pyplot as plt
-
-        if ax is None:
-            _, ax = plt.subplots(figsize=(8, 4))
-        ax.errorbar(self["f"], self[key], yerr=self[key + "_err"], fmt="o-", ms=2.5, lw=0.8,
-                    capsize=1.5, elinewidth=0.8, label=key)  # fmt: skip
-        ax.set_xlabel("f (Hz)")
-        return ax
-
-    def mark_tongues(self, ax) -> None:
-        """Shade the k/1 tongue intervals and label them k/1 at the top of ``ax``."""
-        for k, lo, hi in self["tongues"]:
-            ax.axvspan(lo, hi, color="tab:orange", alpha=0.15, lw=0)
-            ax.text(0.5 * (lo + hi), 1.0, f"{int(k)}/1", transform=ax.get_xaxis_transform(),
-                    ha="center", va="bottom", fontsize=8, color="tab:orange")  # fmt: skip
-
-    def flagged(self) -> dict[str, list[float]]:
-        """Frequencies whose convergence checks raised a flag (see the module docstring)."""
-        f = self["f"]
-        return {
-            "D_windows_disagree": f[self["D_converged"] == 0].tolist(),
-            "energy_not_stationary": f[self["energy_stationary"] == 0].tolist(),
-        }

@@ -1,13 +1,13 @@
 """Work-precision benchmark of the flat ball (scene B2, docs/model.md §6, issue 2 item 8).
 
 Three ways to find the next impact are compared against the mpmath reference
-``bbdyn.flat_reference.reference_impacts``:
+``bbdyn.reference.flat_mpmath.reference_impacts``:
 
 * ``exact``: bbdyn's first-contact search ``bbdyn.core.flat.flat_flight_tol``,
   at the default stopping tolerance ``ROOT_STEP_REL`` (that of ``flat_flight``)
   and at looser ones (``step_rel``: the contact time is then early by up to
   about ``step_rel`` times the flight);
-* ``fixed_step``: the paper-like sampler of ``bbdyn.benchmarking.fixed_step``
+* ``fixed_step``: the paper-like sampler of ``bbdyn.reference.fixed_step``
   (flight sampled at ``dt``, the crossing halved down to ``dt_min``);
 * ``solve_ivp``: scipy's RK45 / DOP853 with a terminal event, either in the lab
   frame (state ``y, v``, ``y'' = -g``, event ``y - y_p(t)``: the solution is a
@@ -39,13 +39,14 @@ from typing import Any
 import numpy as np
 from numba import njit
 
-from bbdyn.benchmarking.fixed_step import fixed_step_one_step, fixed_step_run
-from bbdyn.benchmarking.timing import ERROR_COLUMNS, format_rows, measure, single_thread
 from bbdyn.core.flat import flat_flight_tol, flat_run, flat_run_count
 from bbdyn.core.plate import TWO_PI
 from bbdyn.core.status import IMPACT, OK, STICK, raise_for_status
 from bbdyn.core.tolerances import EPS, ROOT_STEP_REL
 from bbdyn.params import Params
+from bbdyn.reference.fixed_step import fixed_step_one_step, fixed_step_run
+from bbdyn.reference.flat_ivp import ivp_flight
+from bbdyn.reference.timing import ERROR_COLUMNS, format_rows, measure, single_thread
 from bbdyn.results import Result, make_meta
 
 __all__ = [
@@ -58,7 +59,6 @@ __all__ = [
     "table",
     "start_states",
     "exact_one_step",
-    "ivp_flight",
     "one_step_errors",
     "long_run_stats",
 ]
@@ -77,6 +77,7 @@ CASE = {"f": 82.0, "alpha": 0.8, "phase0": 1.6362617649333338, "vrel0": 135.8286
 #: it ended at a different contact (a missed or spurious one), not an inaccurate one.
 WRONG_CONTACT_REL = 0.01
 
+TITLE = "Flat ball work-precision: impact-time error against cost (exact, fixed step, solve_ivp)"
 QUICK: dict[str, Any] = {
     "n_impacts": 40,
     "exact_tols": [1e-4, 1e-10],
@@ -143,7 +144,7 @@ def start_states(params: Params, n_impacts: int) -> dict[str, np.ndarray]:
         ``phase`` (rad), ``vrel`` (mm/s): start states; ``tau`` (s): reference
         flight time; ``v`` (mm/s): reference absolute post-impact velocity.
     """
-    from bbdyn.flat_reference import reference_impacts
+    from bbdyn.reference.flat_mpmath import reference_impacts
 
     phase, vrel = CASE["phase0"], CASE["vrel0"]
     traj = reference_impacts(params, phase, vrel, n_impacts)
@@ -176,78 +177,6 @@ def exact_one_step(phases, vrels, kp, step_rel, out_tau, out_vrel_minus):
         out_tau[i] = tau
         out_vrel_minus[i] = vm
     return n_evals, OK
-
-
-def ivp_flight(
-    kp, phase: float, vrel: float, method: str, frame: str, rtol: float, max_step: float = math.inf
-):
-    """One flight with ``scipy.integrate.solve_ivp`` and a terminal event.
-
-    Parameters
-    ----------
-    kp : KernelParams
-    phase, vrel : float
-        Start phase (rad) and relative velocity (mm/s); local time starts at 0.
-    method : {"RK45", "DOP853"}
-    frame : {"lab", "plate"}
-        ``lab``: state (y, v) with y'' = -g and event y - y_p; ``plate``: state
-        (G, G') with G'' = -g - A w^2 sin(phase + w tau) and event G.
-    rtol : float
-        Relative tolerance; the absolute tolerance is ``rtol`` times the scales
-        (A mm, A w mm/s).
-    max_step : float
-        Largest step, in driving periods (scipy's default: no limit).
-
-    Returns
-    -------
-    (tau, vrel_minus): flight time (s) and relative velocity before impact (mm/s);
-    ``(inf, nan)`` if no event was found before the parabola falls below -A.
-    """
-    from scipy.integrate import solve_ivp
-
-    A, w, g = kp.A, kp.w, kp.g
-    aw2 = A * w * w
-    if frame == "lab":
-        y0 = [-A * math.sin(phase), vrel - A * w * math.cos(phase)]
-
-        def rhs(t, y):
-            return [y[1], -g]
-
-        def event(t, y):
-            return y[0] + A * math.sin(phase + w * t)
-
-    elif frame == "plate":
-        y0 = [0.0, vrel]
-
-        def rhs(t, y):
-            return [y[1], -g - aw2 * math.sin(phase + w * t)]
-
-        def event(t, y):
-            return y[0]
-
-    else:
-        raise ValueError(f"frame must be 'lab' or 'plate', got {frame!r}")
-    event.terminal = True
-    event.direction = -1
-    v_abs = vrel - A * w * math.cos(phase)
-    tau_max = (v_abs + math.sqrt(v_abs * v_abs + 2.0 * g * (A - A * math.sin(phase)))) / g
-    sol = solve_ivp(
-        rhs,
-        (0.0, 1.01 * tau_max),
-        y0,
-        method=method,
-        rtol=rtol,
-        atol=[rtol * A, rtol * A * w],
-        events=event,
-        max_step=max_step * kp.period,
-    )
-    if sol.t_events[0].size == 0:
-        return math.inf, math.nan
-    tau = float(sol.t_events[0][0])
-    rate = float(sol.y_events[0][0][1])
-    if frame == "lab":
-        rate += A * w * math.cos(phase + w * tau)  # v - u
-    return tau, rate
 
 
 def _post_impact_v(kp, phases, tau, vrel_minus):

@@ -22,13 +22,7 @@ import numpy as np
 from bbdyn.params import Params
 from bbdyn.results import Result, make_meta
 
-__all__ = ["QUICK", "FULL", "StatCostResult", "statcost", "loglog_slope"]
-
-QUICK = {"f": (66.0, 85.2, 90.0), "n": (25, 50, 100, 200), "t": (5.0, 10.0, 20.0, 40.0),
-         "n_fixed": 50, "t_fixed": 10.0}  # fmt: skip
-FULL = {"f": (58.0, 66.0, 85.2, 90.0), "n": (50, 100, 200, 400, 800),
-        "t": (10.0, 20.0, 40.0, 80.0, 160.0), "n_fixed": 200, "t_fixed": 40.0}  # fmt: skip
-
+__all__ = ["StatCostResult", "statcost", "loglog_slope"]
 
 def loglog_slope(x, y) -> float:
     """Least-squares slope of log y against log x (the exponent of a power law)."""
@@ -50,14 +44,14 @@ def _one_run(params: Params, n: int, t: float, seed: int) -> tuple[float, float,
     return float(D), float(se), cpu
 
 
-def statcost(settings: dict | None = None, seed: int = 0) -> StatCostResult:
+def statcost(settings: dict, seed: int = 0) -> StatCostResult:
     """Standard error of D and CPU time against n and against t at a few frequencies.
 
     Parameters
     ----------
-    settings : dict, optional
+    settings : dict
         ``f`` (Hz), ``n`` (ensemble sizes at ``t_fixed``), ``t`` (run lengths in s at
-        ``n_fixed``), ``n_fixed``, ``t_fixed``; default ``QUICK``.
+        ``n_fixed``), ``n_fixed``, ``t_fixed`` (the settings of scene B3).
     seed : int
         Seed of the initial conditions (the same for every run: runs with more
         particles contain those of smaller runs).
@@ -70,7 +64,7 @@ def statcost(settings: dict | None = None, seed: int = 0) -> StatCostResult:
         (k,) the exponents of D_err against n and t.  CPU time is the process time of
         one numba thread, after compilation.
     """
-    s = dict(QUICK if settings is None else settings)
+    s = dict(settings)
     f, ns, ts = (np.asarray(s[k], dtype=float) for k in ("f", "n", "t"))
     if np.any(ns < 2) or np.any(ns != np.round(ns)):
         raise ValueError(f"n must hold integers >= 2, got {s['n']}")

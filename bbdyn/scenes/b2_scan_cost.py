@@ -34,7 +34,7 @@ from typing import Any
 
 import numpy as np
 
-from bbdyn.benchmarking.timing import single_thread
+from bbdyn.reference.timing import single_thread
 from bbdyn.results import Result, make_meta
 
 __all__ = ["BANDS", "FULL", "QUICK", "compute", "predict", "sample_frequencies", "table"]
@@ -46,6 +46,7 @@ F_STEP, FULL_N, FULL_T = 0.2, 1000, 200.0
 #: Share of the particles rerun for the energy stationarity check (100 of 1000).
 CHECK_SHARE = 0.1
 
+TITLE = "Cost model of the full S3-S5 scan: CPU time per particle-second against f"
 QUICK = {"samples": 14, "n": 16, "t": 10.0, "repeats": 3}
 FULL = {"samples": 20, "n": 64, "t": 20.0, "repeats": 3}
 
@@ -107,8 +108,8 @@ def point_cpu(f: float, n: int, t: float) -> float:
     = ``FULL_T / (N_SAMPLES - 1)``, at least 11 samples): periodic stick-release
     cycles are fast-forwarded only between samples, so denser samples would cost more.
     """
-    from bbdyn.frequency_scan import N_SAMPLES, diffusion_point
-    from bbdyn.scan import point_seed
+    from bbdyn.scans.frequency import N_SAMPLES, diffusion_point
+    from bbdyn.scans.runner import point_seed
 
     check = max(2, round(CHECK_SHARE * n))
     n_samples = max(11, round(t / FULL_T * (N_SAMPLES - 1)) + 1)

@@ -11,21 +11,20 @@ jumps between traps, and evaluates at the same parameters
   (``bbdyn.approx.analytic_diffusion``; NaN with a reason where Gamma < 2).
 
 ``gk_numbers`` flattens that into plain numbers; ``gk_point`` is the compute
-function of ``bbdyn.scan.run_scan`` and ``gk_scan`` runs it over frequencies
-(scenes S9, S10), resumable like ``bbdyn.frequency_scan.frequency_scan``.
+function of ``bbdyn.scans.runner.run_scan`` and ``gk_scan`` runs it over frequencies
+(scenes S9, S10), resumable like ``bbdyn.scans.frequency.frequency_scan``.
 """
 
 from __future__ import annotations
 
 import functools
 import math
-from pathlib import Path
 
 import numpy as np
 
 from bbdyn.params import Params
 
-__all__ = ["gk_run", "gk_numbers", "gk_point", "gk_scan", "gk_scan_folder", "gk_scene_scan"]
+__all__ = ["gk_run", "gk_numbers", "gk_point", "gk_scan"]
 
 #: First guess of the stored jumps per particle per simulated second.  Measured jump rates
 #: at the defaults stay below 7 /s (65-95 Hz); a run that overflows is repeated with
@@ -178,7 +177,8 @@ def gk_point(
     n_boot: int = 1000,
     transient: float | None = None,
 ) -> dict:
-    """Compute function of ``bbdyn.scan.run_scan``: ``gk_numbers(gk_run(Params(f=f), ...))``.
+    """Compute function of a scan (``bbdyn.scans.runner.run_scan``):
+    ``gk_numbers(gk_run(Params(f=f), ...))``.
 
     The ensemble and the bootstrap draw independent streams spawned from
     ``seed_sequence`` (so a point depends only on the scan seed and f).
@@ -212,7 +212,7 @@ def gk_scan(
     workers: int | None = None,
     progress=True,
 ):
-    """Run ``gk_point`` over ``frequencies`` (Hz) with ``bbdyn.scan.run_scan``.
+    """Run ``gk_point`` over ``frequencies`` (Hz) with ``bbdyn.scans.runner.run_scan``.
 
     Every finished frequency is stored in ``out_dir`` at once; the same call resumes an
     interrupted scan (docs/scans.md); n and t are checked at every frequency before
@@ -220,7 +220,7 @@ def gk_scan(
     of ``gk_numbers`` stacked over frequencies (``D_n`` has shape (n_f, nmax + 1)).
     """
     from bbdyn.ensemble import check_n, check_run
-    from bbdyn.scan import run_scan
+    from bbdyn.scans.runner import run_scan
 
     freqs = [float(f) for f in frequencies]
     for f in freqs:  # before anything is written: a refused scan leaves no folder
@@ -234,31 +234,4 @@ def gk_scan(
         resume=resume,
         workers=workers,
         progress=progress,
-    )
-
-
-def gk_scan_folder(settings: dict, seed: int, out_dir=None) -> Path:
-    """Folder of the scan of an S9/S10 setting: ``<out_dir>/scans/gk_<digest>``
-    (``bbdyn.scan.settings_folder`` over the grid, n, t and nmax)."""
-    from bbdyn.scan import settings_folder
-
-    return settings_folder("gk", settings, ("f_start", "f_stop", "f_step", "n", "t", "nmax"),
-                           seed, out_dir)  # fmt: skip
-
-
-def gk_scene_scan(settings: dict, seed: int, out_dir=None):
-    """The scan of a scene setting on ``frequency_grid(f_start, f_stop, f_step)``, computed
-    or resumed in ``gk_scan_folder``; ``settings["workers"]`` and ``["progress"]`` optional."""
-    from bbdyn.frequency_scan import frequency_grid
-
-    grid = frequency_grid(settings["f_start"], settings["f_stop"], settings["f_step"])
-    return gk_scan(
-        grid,
-        out_dir=gk_scan_folder(settings, seed, out_dir),
-        seed=seed,
-        n=settings["n"],
-        t=settings["t"],
-        nmax=settings.get("nmax", 1),
-        workers=settings.get("workers"),
-        progress=settings.get("progress", False),
     )

@@ -46,7 +46,6 @@ from typing import Any, TextIO
 
 import numpy as np
 
-from bbdyn.progress import Progress, progress_stream
 from bbdyn.results import (
     DamagedResultError,
     Result,
@@ -55,6 +54,7 @@ from bbdyn.results import (
     result_paths,
     write_json_atomic,
 )
+from bbdyn.scans.progress import Progress, progress_stream
 
 __all__ = [
     "KEY_SCALE",
@@ -68,7 +68,6 @@ __all__ = [
     "point_key",
     "point_seed",
     "run_scan",
-    "settings_folder",
 ]
 
 #: Seed keys are the values rounded to 1 / KEY_SCALE (1e-9 Hz for frequencies).
@@ -431,10 +430,10 @@ class _LocalBackend:
 
     def __init__(self, workers: int):
         # forkserver: workers are forked from a clean server process, never from this
-        # (possibly multi-threaded) one; bbdyn.scan is preloaded so forks start fast.
+        # (possibly multi-threaded) one; bbdyn.scans.runner is preloaded so forks start fast.
         if "forkserver" in multiprocessing.get_all_start_methods():
             ctx = multiprocessing.get_context("forkserver")
-            ctx.set_forkserver_preload(["bbdyn.scan"])
+            ctx.set_forkserver_preload(["bbdyn.scans.runner"])
         else:
             ctx = multiprocessing.get_context("spawn")
         self.pool = cf.ProcessPoolExecutor(
@@ -786,25 +785,3 @@ def load_scan(out_dir: str | os.PathLike, *, partial: bool = False) -> ScanResul
     meta = {k: v for k, v in manifest.items() if k != "kind"}
     meta.update(n_missing=missing, points=[p.meta for p in points])
     return ScanResult(arrays, meta)
-
-
-def settings_folder(prefix: str, settings: dict, keys, seed: int, out_dir=None) -> Path:
-    """Folder of the scan behind a scene setting: ``<out_dir>/scans/<prefix>_<digest>``.
-
-    The digest covers ``settings[k]`` for ``k in keys``, the seed and the package
-    version, so scenes with the same setting share one scan and a new version never
-    reuses old numbers.  ``out_dir`` defaults to ``$BBDYN_CACHE`` or ``~/.cache/bbdyn``;
-    ``settings["scan_dir"]`` names a folder explicitly.
-    """
-    import hashlib
-    import os
-
-    from bbdyn import __version__
-
-    if settings.get("scan_dir"):
-        return Path(settings["scan_dir"])
-    if out_dir is None:
-        out_dir = os.environ.get("BBDYN_CACHE", Path.home() / ".cache" / "bbdyn")
-    defining = {k: settings.get(k) for k in keys} | {"seed": seed, "version": __version__}
-    digest = hashlib.sha256(json.dumps(defining, sort_keys=True).encode()).hexdigest()[:12]
-    return Path(out_dir) / "scans" / f"{prefix}_{digest}"

@@ -10,7 +10,7 @@ summed chattering sequence); RELEASE events are not collisions.
 Accuracy: *one-step* impact-time errors, as for the flat ball.  Start states are
 the exact kernel's post-event states on the attractor (float64); from each, the
 exact kernel and the fixed-step method (``fixed_step_billiard``) find the next
-contact, and both are compared with an mpmath root (``MP_DPS`` digits) of the
+contact, and both are compared with an mpmath root (``bbdyn.reference.billiard_mpmath``) of the
 same flight's gap on the tile of the exact contact
 (``reference_flight``).  The reference refines the contact; that it is the
 *first* one is the exact kernel's guarantee (tested in tests/test_billiard_*.py),
@@ -35,11 +35,6 @@ from typing import Any
 import numpy as np
 from numba import njit
 
-from bbdyn.benchmarking.fixed_step_billiard import (
-    fixed_step_billiard_one_step,
-    fixed_step_ensemble,
-)
-from bbdyn.benchmarking.timing import ERROR_COLUMNS, format_rows, measure, single_thread
 from bbdyn.core.billiard import (
     billiard_event,
     billiard_flight,
@@ -51,17 +46,21 @@ from bbdyn.core.floor import bounce
 from bbdyn.core.status import IMPACT, OK, STICK, raise_for_status
 from bbdyn.core.tolerances import EPS, ROOT_STEP_REL
 from bbdyn.params import Params
+from bbdyn.reference.billiard_mpmath import reference_flight
+from bbdyn.reference.fixed_step_billiard import (
+    fixed_step_billiard_one_step,
+    fixed_step_ensemble,
+)
+from bbdyn.reference.timing import ERROR_COLUMNS, format_rows, measure, single_thread
 from bbdyn.results import Result, make_meta
 
 __all__ = [
     "CASE",
     "QUICK",
     "FULL",
-    "MP_DPS",
     "BilliardBenchResult",
     "attractor_states",
     "exact_one_step",
-    "reference_flight",
     "flight_profile",
     "compute",
     "draw",
@@ -72,14 +71,13 @@ __all__ = [
 #: intermittent regime); the start state goes through ``transient`` events first.
 CASE = {"f": 85.2, "start": (0.0, 0.0, 0.0, 0.3, 10.0, 40.0, IMPACT), "transient": 20_000}
 
-#: Digits of the mpmath reference (a contact time of ~1e-2 s to ~1e-40 s).
-MP_DPS = 40
 
 #: A flight whose time differs from the reference by more than this fraction of
 #: it, and by more than the method's final bracket ``dt_min`` (a fixed-step
 #: contact is late by less than that), ended at a different contact.
 WRONG_CONTACT_REL = 0.01
 
+TITLE = "Billiard work-precision: impact-time error against cost per collision (exact, fixed step)"
 QUICK: dict[str, Any] = {
     "n_impacts": 60,
     "fixed": [(1e-4, 1e-6), (1e-4, 1e-8)],
@@ -180,60 +178,6 @@ def flight_profile(state, kp, n_events):
         if kind == STICK:
             sticks += 1
     return steps, flights, collisions, sticks, OK
-
-
-def reference_flight(kp, phase, xi0, vx, vyrel, k, tau_guess, dps: int = MP_DPS):
-    """Contact time of one flight in mpmath, on tile offset ``k``, near ``tau_guess``.
-
-    The gap (docs/model.md §2, ``Y(x, t)``) with every input the float64 value
-    given (parameters of ``kp`` included):
-
-        G(tau) = (vyrel + u) tau - g tau^2/2 - [y_p(t + tau) - y_p(t)]
-                 - [sqrt(R^2 - xi(tau)^2) - sqrt(R^2 - xi0^2)],  xi(tau) = xi0 + vx tau - k d
-
-    is bracketed around ``tau_guess`` (widening until it changes sign) and solved
-    by bisection-safeguarded Anderson iteration.
-
-    Returns
-    -------
-    tau, vx_plus, vy_plus : float
-        Contact time (s) and absolute post-impact velocity (mm/s), rounded to float64.
-    """
-    import mpmath as mp
-
-    with mp.workdps(dps):
-        A, w, g, R, d = (mp.mpf(v) for v in (kp.A, kp.w, kp.g, kp.R, kp.d))
-        al, be = mp.mpf(kp.alpha), mp.mpf(kp.beta)
-        th, x0, ux, uy = mp.mpf(phase), mp.mpf(xi0), mp.mpf(vx), mp.mpf(vyrel)
-        kk = mp.mpf(k)
-        u0 = -A * w * mp.cos(th)
-        S0 = mp.sqrt(R * R - x0 * x0)
-
-        def gap(t):
-            xi = x0 + ux * t - kk * d
-            rise = -A * mp.sin(th + w * t) + A * mp.sin(th)
-            return (uy + u0) * t - g * t * t / 2 - rise - (mp.sqrt(R * R - xi * xi) - S0)
-
-        tg = mp.mpf(tau_guess)
-        delta = max(tg * mp.mpf(2) ** -50, mp.mpf(10) ** -30)
-        lo, hi = tg - delta, tg + delta
-        for _ in range(200):
-            if gap(lo) > 0 and gap(hi) <= 0:
-                break
-            delta *= 2
-            lo, hi = max(tg - delta, mp.mpf(0)), tg + delta
-        else:
-            return math.nan, math.nan, math.nan
-        tau = mp.findroot(gap, (lo, hi), solver="anderson")
-        xi = x0 + ux * tau - kk * d
-        S = mp.sqrt(R * R - xi * xi)
-        vyr = uy - g * tau - (-A * w * mp.cos(th + w * tau) - u0)
-        vn = (ux * xi + vyr * S) / R
-        vt = (ux * S - vyr * xi) / R
-        vn, vt = -al * vn, be * vt
-        vx_p = (vn * xi + vt * S) / R
-        vy_p = (vn * S - vt * xi) / R - A * w * mp.cos(th + w * tau)
-        return float(tau), float(vx_p), float(vy_p)
 
 
 def _start_array(states) -> np.ndarray:

@@ -14,7 +14,14 @@ import json
 from collections.abc import Callable, Iterable
 from pathlib import Path
 
-from bbdyn.scenes import SCENES, SOURCE_ROOT, run_scene, scene_module, scene_settings
+from bbdyn.scenes import (
+    SCENES,
+    SETTINGS,
+    SOURCE_ROOT,
+    run_scene,
+    scene_module,
+    scene_settings,
+)
 
 #: scene id -> (setting, file name without suffix) of its figure in docs/figures
 DOCS_FIGURES = {
@@ -69,11 +76,15 @@ def reproduce(
     only: Iterable[str] | None = None,
     progress: Callable[[str], None] | None = None,
 ) -> Path:
-    """Run the scenes (all, or the ids in ``only``) at ``setting``, save figures and data in
-    ``out_dir``; return its ``index.md``, which lists every scene saved there (those not
-    rerun keep their entries).  A scene without ``setting`` raises before anything runs."""
+    """Run the scenes at ``setting`` (the ids in ``only``, or else every scene that has
+    ``setting``), save figures and data in ``out_dir``; return its ``index.md``, which lists
+    every scene saved there (those not rerun keep their entries).  A scene in ``only``
+    without ``setting`` raises before anything runs."""
     out_dir = Path(out_dir)
-    ids = _check_ids(only, SCENES)
+    if only is None:
+        ids = [s for s in SCENES if hasattr(scene_module(s), SETTINGS[setting])]
+    else:
+        ids = _check_ids(only, SCENES)
     for scene_id in ids:
         scene_settings(scene_id, setting)  # fail early, before any long computation
     for scene_id in ids:

@@ -1,0 +1,94 @@
+"""The result shared by scenes S3, S4 and S5: the scalars of one frequency scan per frequency.
+
+S3 (D), S4 (E) and S5 (E_x) draw the same scan (``bbdyn.scans.cache.diffusion_scan``);
+``FrequencyScanScene`` keeps the outputs the three figures need (``SCENE_KEYS``) with the
+k/1 tongue intervals of the flat ball, which the figures shade.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from bbdyn.params import Params
+from bbdyn.results import Result, make_meta
+from bbdyn.tongues import tongue_intervals
+
+__all__ = ["SCENE_KEYS", "FrequencyScanScene"]
+
+#: Outputs of a scan that the scenes keep (scalars per frequency).
+SCENE_KEYS = (
+    "gamma",
+    "D",
+    "D_err",
+    "D_boot_lo",
+    "D_boot_hi",
+    "D_converged",
+    "trapped",
+    "E",
+    "E_err",
+    "E_x",
+    "E_x_err",
+    "E_y",
+    "E_y_err",
+    "E_pot",
+    "E_pot_err",
+    "E_reference",
+    "energy_stationary",
+    "stuck_fraction",
+    "collision_rate",
+    "events",
+)
+
+
+class FrequencyScanScene(Result):
+    """Scalars of a frequency scan for scenes S3-S5 (arrays ``f`` and ``SCENE_KEYS``, each
+    (n_f,)) with the k/1 tongue intervals ``tongues`` (m, 3): ``(k, f_lo, f_hi)`` in Hz."""
+
+    kind = "frequency_scan_scene"
+
+    @classmethod
+    def from_scan(cls, scan, params: Params, **meta) -> FrequencyScanScene:
+        """Keep the scenes' outputs of ``scan`` and add the tongue intervals."""
+        f = scan.values
+        arrays = {"f": f} | {k: scan[k] for k in SCENE_KEYS}
+        arrays["tongues"] = tongue_intervals(params, float(f.min()), float(f.max()))
+        cpu = float(sum(p["wall_s"] for p in scan.meta["points"]))
+        return cls(
+            arrays,
+            make_meta(
+                params,
+                scan_seed=scan.meta["seed"],
+                scan_compute=scan.meta["compute"],
+                scan_cpu_s=cpu,
+                events_per_cpu_s=float(np.sum(scan["events"]) / cpu) if cpu else math.nan,
+                **meta,
+            ),
+        )
+
+    def plot(self, ax=None, key: str = "D"):
+        """``key`` (``"D"``, ``"E"``, ``"E_x"``, ...) against f with error bars; the axes."""
+        import matplotlib.pyplot as plt
+
+        if ax is None:
+            _, ax = plt.subplots(figsize=(8, 4))
+        ax.errorbar(self["f"], self[key], yerr=self[key + "_err"], fmt="o-", ms=2.5, lw=0.8,
+                    capsize=1.5, elinewidth=0.8, label=key)  # fmt: skip
+        ax.set_xlabel("f (Hz)")
+        return ax
+
+    def mark_tongues(self, ax) -> None:
+        """Shade the k/1 tongue intervals and label them k/1 at the top of ``ax``."""
+        for k, lo, hi in self["tongues"]:
+            ax.axvspan(lo, hi, color="tab:orange", alpha=0.15, lw=0)
+            ax.text(0.5 * (lo + hi), 1.0, f"{int(k)}/1", transform=ax.get_xaxis_transform(),
+                    ha="center", va="bottom", fontsize=8, color="tab:orange")  # fmt: skip
+
+    def flagged(self) -> dict[str, list[float]]:
+        """Frequencies whose convergence checks raised a flag (see the module docstring)."""
+        f = self["f"]
+        return {
+            "D_windows_disagree": f[self["D_converged"] == 0].tolist(),
+            "energy_not_stationary": f[self["energy_stationary"] == 0].tolist(),
+        }
