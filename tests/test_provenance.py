@@ -249,3 +249,21 @@ def test_reproduce_docs_refuses_an_output_folder(no_runs, capsys):
     with pytest.raises(SystemExit) as exc:
         main(["reproduce", "--docs", "--out", "elsewhere"])
     assert exc.value.code == 2 and "cannot be used with --docs" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("scene_id", list(SCENES))
+def test_settings_are_shown_in_words_not_python_reprs(scene_id):
+    from bbdyn.scenes import SETTINGS
+    from bbdyn.scenes.reproduce import settings_text
+
+    for name, attr in SETTINGS.items():
+        settings = getattr(scene_module(scene_id), attr, None)
+        if settings is None:
+            continue
+        text = settings_text(settings)
+        assert not set("{}[]'\"_") & set(text), (scene_id, name, text)
+        if {"f_start", "f_stop", "f_step"} <= settings.keys():
+            lo, hi, step = settings["f_start"], settings["f_stop"], settings["f_step"]
+            assert f"f = {lo:g} to {hi:g} Hz in steps of {step:g} Hz" in text
+        if "t" in settings and isinstance(settings["t"], float):
+            assert f"t = {settings['t']:g} s" in text

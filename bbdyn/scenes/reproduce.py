@@ -173,10 +173,43 @@ def _commit_text(record: dict) -> str:
     return record["commit"][:7] + (" (tree had uncommitted changes)" if record["dirty"] else "")
 
 
-def _settings_text(settings: dict | str) -> str:
+def _value_text(value, inner: bool = False) -> str:
+    """A setting value in words: numbers as written (``%g``), lists joined by commas (a
+    list inside a list in parentheses)."""
+    if isinstance(value, bool):
+        return "yes" if value else "no"
+    if isinstance(value, int | float):
+        return f"{value:g}"
+    if isinstance(value, list | tuple):
+        text = ", ".join(_value_text(v, inner=True) for v in value)
+        return f"({text})" if inner else text
+    if isinstance(value, dict):
+        return "; ".join(f"{k} {_value_text(v)}" for k, v in value.items())
+    return str(value)
+
+
+def settings_text(settings: dict | str) -> str:
+    """A scene setting in words, e.g. ``f = 49.8 to 95 Hz in steps of 0.2 Hz, n = 1000
+    particles, t = 200 s``: the frequency grid, particles and run time first, then the
+    other keys as ``key value``."""
     if isinstance(settings, str):
         return settings
-    return ", ".join(f"{k}={v}" for k, v in settings.items())
+    rest = {k: v for k, v in settings.items() if v is not None}  # None: the default
+    words = []
+    if {"f_start", "f_stop", "f_step"} <= rest.keys():
+        start, stop, step = (rest.pop(k) for k in ("f_start", "f_stop", "f_step"))
+        words.append(f"f = {start:g} to {stop:g} Hz in steps of {step:g} Hz")
+    if {"f_min", "f_max", "n_f"} <= rest.keys():
+        lo, hi, count = (rest.pop(k) for k in ("f_min", "f_max", "n_f"))
+        words.append(f"f = {lo:g} to {hi:g} Hz at {count:g} frequencies")
+    if "f" in rest:
+        words.append(f"f = {_value_text(rest.pop('f'))} Hz")
+    if "n" in rest:
+        words.append(f"n = {_value_text(rest.pop('n'))} particles")
+    if "t" in rest:
+        words.append(f"t = {_value_text(rest.pop('t'))} s")
+    words += [f"{k.replace('_', ' ')} {_value_text(v)}" for k, v in rest.items()]
+    return ", ".join(words)
 
 
 def write_index(folder: str | Path) -> Path:
@@ -198,7 +231,7 @@ def write_index(folder: str | Path) -> Path:
             f"![{r['name']}]({r['name']}.png)",
             "",
             f"* data: `{r['name']}.npz`, `{r['name']}.json`",
-            f"* setting: {r['setting']} (`{_settings_text(r['settings'])}`), seed {r['seed']}",
+            f"* setting: {r['setting']} ({settings_text(r['settings'])}), seed {r['seed']}",
             f"* run time: {r['run']}; commit: {_commit_text(r)}",
         ]
         lines += [f"* {key}: {value}" for key, value in r["key_numbers"].items()]
@@ -225,7 +258,7 @@ def docs_table(folder: str | Path) -> str:
         )
         rows.append(
             f"| [`{r['name']}.png`](figures/{r['name']}.png) | {scene_module(r['scene']).TITLE} "
-            f"| {r['setting']}: `{_settings_text(r['settings'])}` ({r['seed']}) | {made} "
+            f"| {r['setting']}: {settings_text(r['settings'])} (seed {r['seed']}) | {made} "
             f"| {r['run']} | {_commit_text(r)} |"
         )
     return "\n".join(rows)
