@@ -32,7 +32,7 @@ def run(args) -> int:
                 f"--out {args.out} cannot be used with --docs, which writes into "
                 "docs/figures of the source checkout; leave out --out or --docs"
             )
-        page = reproduce_docs(only=args.only, seed=args.seed, progress=print)
+        page = reproduce_docs(only=args.only, seed=args.seed, progress=print, scan_progress=True)
     else:
         page = reproduce(
             out_dir=args.out or "out",
@@ -40,6 +40,7 @@ def run(args) -> int:
             seed=args.seed,
             only=args.only,
             progress=print,
+            scan_progress=True,
         )
     print(f"index: {page}")
     return 0

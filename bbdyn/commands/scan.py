@@ -18,6 +18,7 @@ from bbdyn.commands import (
     BILLIARD_OPTIONS,
     PARAM_DEFAULTS,
     add_model_arguments,
+    duration,
     finite,
     model_values,
     particles,
@@ -106,7 +107,10 @@ def run(args) -> int:
     # size and arguments first: a refused scan allocates and writes nothing
     count = grid_size(args.f_start, args.f_stop, args.f_step)
     f_last = args.f_start + (count - 1) * args.f_step
-    check_scan_size(args.f_start, f_last, count, n=args.n, t=args.t, transient=args.transient)
+    cost = check_scan_size(args.f_start, f_last, count, n=args.n, t=args.t,
+                           transient=args.transient)  # fmt: skip
+    print(f"bbdyn scan: {count} frequencies, at most {duration(cost['cpu_s'])} of CPU time "
+          "(event model; real runs are faster)", file=sys.stderr)  # fmt: skip
     grid = frequency_grid(args.f_start, args.f_stop, args.f_step)
     log = open(args.progress, "a", buffering=1) if args.progress else None  # noqa: SIM115
     try:

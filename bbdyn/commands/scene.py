@@ -16,7 +16,9 @@ def add_arguments(parser) -> None:
 def run(args) -> int:
     from bbdyn.scenes import run_scene, scene_module
 
-    result, png = run_scene(args.scene_id, setting=args.setting, out_dir=args.out, seed=args.seed)
+    result, png = run_scene(
+        args.scene_id, setting=args.setting, out_dir=args.out, seed=args.seed, progress=True
+    )
     table = getattr(scene_module(args.scene_id), "table", None)
     if table is not None:
         print(table(result) + "\n")

@@ -45,11 +45,11 @@ def scene_folder(family: str, settings: dict, seed: int, out_dir=None) -> Path:
     return Path(out_dir) / "scans" / f"{family}_{digest}"
 
 
-def diffusion_scan(settings: dict, seed: int, out_dir=None):
+def diffusion_scan(settings: dict, seed: int, out_dir=None, progress=False):
     """The frequency scan of an S3-S5 setting (``bbdyn.scans.frequency.frequency_scan`` on
     ``frequency_grid(f_start, f_stop, f_step)``): loaded if finished, else computed or
-    resumed.  With an explicit ``settings["scan_dir"]`` the scan is only loaded, and with
-    ``settings["partial"]`` true its finished points are enough."""
+    resumed (``progress`` as in ``run_scan``).  With an explicit ``settings["scan_dir"]`` the
+    scan is only loaded, and with ``settings["partial"]`` true its finished points are enough."""
     from bbdyn.scans.frequency import frequency_grid, frequency_scan
     from bbdyn.scans.runner import load_scan
 
@@ -64,14 +64,14 @@ def diffusion_scan(settings: dict, seed: int, out_dir=None):
         t=settings["t"],
         transient=settings.get("transient"),
         workers=settings.get("workers"),
-        progress=settings.get("progress", False),
+        progress=progress,
     )
 
 
-def gk_scene_scan(settings: dict, seed: int, out_dir=None):
+def gk_scene_scan(settings: dict, seed: int, out_dir=None, progress=False):
     """The Green-Kubo scan of an S9/S10 setting (``bbdyn.scans.green_kubo.gk_scan`` on
     ``frequency_grid(f_start, f_stop, f_step)``), computed or resumed;
-    ``settings["workers"]`` and ``["progress"]`` optional."""
+    ``settings["workers"]`` optional; ``progress`` as in ``run_scan``."""
     from bbdyn.scans.frequency import frequency_grid
     from bbdyn.scans.green_kubo import gk_scan
 
@@ -83,5 +83,5 @@ def gk_scene_scan(settings: dict, seed: int, out_dir=None):
         t=settings["t"],
         nmax=settings.get("nmax", 1),
         workers=settings.get("workers"),
-        progress=settings.get("progress", False),
+        progress=progress,
     )

@@ -37,6 +37,7 @@ __all__ = [
     "MAX_POINTS",
     "P_FLAG",
     "check_scan_size",
+    "cpu_estimate",
     "diffusion_fit",
     "diffusion_point",
     "frequency_grid",
@@ -125,6 +126,15 @@ def _check_point_arguments(params: Params, n, t, transient, n_samples, check) ->
     return n
 
 
+def cpu_estimate(f_sum: float, n: int, t: float) -> float:
+    """CPU time (s) of ``n`` particles for ``t`` s at frequencies summing to ``f_sum`` (Hz),
+    from the ensemble's conservative event model (``bbdyn.ensemble.EVENTS_PER_PERIOD``
+    events per period at ``EVENT_COST_S`` each): an upper estimate, real runs are faster."""
+    from bbdyn.ensemble import EVENT_COST_S, EVENTS_PER_PERIOD
+
+    return float(f_sum) * float(n) * float(t) * EVENTS_PER_PERIOD * EVENT_COST_S
+
+
 def check_scan_size(
     f_lo: float,
     f_hi: float,
@@ -144,12 +154,12 @@ def check_scan_size(
     every point within ``check_size``'s limits (checked at ``f_hi``, the costliest).
     Returns ``{"cpu_s", "bytes"}``; raises ValueError with the estimate and what to do.
     """
-    from bbdyn.ensemble import EVENT_COST_S, EVENTS_PER_PERIOD, check_size
+    from bbdyn.ensemble import check_size
 
     for f in (f_lo, f_hi):
         n = _check_point_arguments(Params(f=f), n, t, transient, n_samples, 0)
     t = float(t)
-    cpu = n_points * n * t * 0.5 * (f_lo + f_hi) * EVENTS_PER_PERIOD * EVENT_COST_S
+    cpu = cpu_estimate(n_points * 0.5 * (f_lo + f_hi), n, t)
     disk = n_points * point_bytes(n_samples)
     said = (
         f"{n_points:.3g} frequencies in [{f_lo:g}, {f_hi:g}] Hz with n={n} particles for "

@@ -7,9 +7,10 @@ Each scene module defines
 * ``TITLE``: one line;
 * ``QUICK`` and ``FULL`` (and optionally ``MEDIUM``): dicts of settings (quick: seconds
   to a minute on 2 cores); ``SETTINGS`` names them;
-* ``compute(settings[, seed][, out_dir]) -> Result``: computes only what the figure
-  needs; it names ``seed`` if it draws random numbers and ``out_dir`` if it keeps
-  intermediate data (the scans of ``bbdyn.scans.cache``) there;
+* ``compute(settings[, seed][, out_dir][, progress]) -> Result``: computes only what the
+  figure needs; it names ``seed`` if it draws random numbers, ``out_dir`` if it keeps
+  intermediate data (the scans of ``bbdyn.scans.cache``) there and ``progress`` if it
+  can show the progress of a long scan (as ``bbdyn.scans.runner.run_scan``);
 * ``draw(result) -> Figure`` (single-panel scenes also take ``ax``): draws a saved or
   fresh result;
 * optionally ``table(result) -> str``: the numbers as a text table (benchmarks).
@@ -90,10 +91,11 @@ def scene_settings(scene_id: str, setting: str) -> dict:
     return dict(getattr(module, SETTINGS[setting]))
 
 
-def call_compute(module, settings: dict, seed: int, out_dir: str | Path):
-    """``module.compute(settings, ...)`` with ``seed`` and ``out_dir`` passed when it names them."""
+def call_compute(module, settings: dict, seed: int, out_dir: str | Path, progress=False):
+    """``module.compute(settings, ...)`` with ``seed``, ``out_dir`` and ``progress`` passed
+    when it names them."""
     accepts = inspect.signature(module.compute).parameters
-    given = {"seed": seed, "out_dir": Path(out_dir)}
+    given = {"seed": seed, "out_dir": Path(out_dir), "progress": progress}
     return module.compute(settings, **{k: v for k, v in given.items() if k in accepts})
 
 
@@ -177,12 +179,14 @@ def run_scene(
     name: str | None = None,
     scan_root: str | Path | None = None,
     overrides: dict | None = None,
+    progress=False,
 ):
     """Compute scene ``scene_id`` at ``setting``, save its numbers and figure in ``out_dir``.
 
     Files are ``<name>.npz/.json/.png`` (``name`` defaults to the scene id).  Scenes built
     on scans keep them under ``scan_root`` (default ``out_dir``), so an interrupted run
-    resumes.  ``overrides`` replaces some values of the setting (they are recorded).
+    resumes.  ``overrides`` replaces some values of the setting (they are recorded);
+    ``progress`` (as in ``bbdyn.scans.runner.run_scan``) goes to scenes that can show it.
     Returns ``(result, png_path)``.
     """
     import matplotlib
@@ -194,7 +198,9 @@ def run_scene(
     out_dir = Path(out_dir)
     source = source_state()  # the code as it is when the run starts
     start = time.perf_counter()
-    result = call_compute(module, settings, seed, out_dir if scan_root is None else scan_root)
+    result = call_compute(
+        module, settings, seed, out_dir if scan_root is None else scan_root, progress
+    )
     run_s = time.perf_counter() - start
     prov = provenance(scene_id, setting, settings, seed, run_s, source)
     result.meta.update(

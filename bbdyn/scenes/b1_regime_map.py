@@ -67,7 +67,15 @@ class SceneB1Result(Result):
         return ax if ax is not None else fig.axes[0]
 
 
-def compute(settings: dict, seed: int = 0, out_dir=None) -> SceneB1Result:
+def cost(settings: dict) -> float:
+    """Upper estimate of the CPU time (s) of the classification scan of ``settings``."""
+    from bbdyn.scans.frequency import cpu_estimate
+
+    f_sum = 0.5 * (settings["f_min"] + settings["f_max"]) * settings["n_f"]
+    return cpu_estimate(f_sum, settings["n"], settings["t"])
+
+
+def compute(settings: dict, seed: int = 0, out_dir=None, progress=False) -> SceneB1Result:
     """Classify the reference box at ``n_f`` frequencies in ``[f_min, f_max]`` (one scan).
 
     The scan is kept (resumable) in ``bbdyn.scans.cache.scene_folder("regime", ...)`` under
@@ -80,7 +88,6 @@ def compute(settings: dict, seed: int = 0, out_dir=None) -> SceneB1Result:
     freqs = np.round(np.linspace(settings["f_min"], settings["f_max"], settings["n_f"]), 6)
     point = functools.partial(regime_point, n=int(settings["n"]), t=float(settings["t"]))
     folder = scene_folder("regime", settings, seed, out_dir)
-    progress = settings.get("progress", False)
     scan = run_scan(freqs.tolist(), point, out_dir=folder, seed=seed,
                     workers=settings["workers"], progress=progress)  # fmt: skip
     arrays = {k: np.asarray(v) for k, v in scan.arrays.items()}

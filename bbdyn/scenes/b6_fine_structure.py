@@ -75,7 +75,15 @@ def grid_points(settings: dict) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     return f, c.astype(int), lv.astype(int)
 
 
-def run_points(settings: dict, seed: int, out_dir=None):
+def cost(settings: dict) -> float:
+    """Upper estimate of the CPU time (s) of the scan of every grid point of ``settings``."""
+    from bbdyn.scans.frequency import cpu_estimate
+
+    values = np.unique(grid_points(settings)[0])
+    return cpu_estimate(values.sum(), settings["n"], settings["t"])
+
+
+def run_points(settings: dict, seed: int, out_dir=None, progress=False):
     """The scan of all grid points of ``settings`` (computed, resumed or loaded)."""
     from bbdyn.scans.frequency import check_scan_size, diffusion_point
     from bbdyn.scans.runner import run_scan
@@ -92,14 +100,16 @@ def run_points(settings: dict, seed: int, out_dir=None):
         seed=seed,
         workers=settings.get("workers"),
         scheduler=settings.get("scheduler") or os.environ.get(SCHEDULER_VARIABLE) or None,
-        progress=settings.get("progress", False),
+        progress=progress,
     )
 
 
-def compute(settings: dict, seed: int = 0, out_dir=None) -> FineStructureResult:
+def compute(
+    settings: dict, seed: int = 0, out_dir=None, progress=False
+) -> FineStructureResult:
     """Run (or resume) the scan of ``settings`` and test every level; see the module docstring."""
     start = time.perf_counter()
-    scan = run_points(settings, seed, out_dir)
+    scan = run_points(settings, seed, out_dir, progress)
     f, cidx, lidx = grid_points(settings)
     pos = np.searchsorted(scan.values, f)
     wall = np.array([p["wall_s"] for p in scan.meta["points"]])

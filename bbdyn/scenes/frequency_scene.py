@@ -13,9 +13,10 @@ import numpy as np
 
 from bbdyn.params import Params
 from bbdyn.results import Result, make_meta
+from bbdyn.scans.cache import diffusion_scan
 from bbdyn.tongues import tongue_intervals
 
-__all__ = ["SCENE_KEYS", "FrequencyScanScene"]
+__all__ = ["SCENE_KEYS", "FrequencyScanScene", "scan_scene"]
 
 #: Outputs of a scan that the scenes keep (scalars per frequency).
 SCENE_KEYS = (
@@ -92,3 +93,10 @@ class FrequencyScanScene(Result):
             "D_windows_disagree": f[self["D_converged"] == 0].tolist(),
             "energy_not_stationary": f[self["energy_stationary"] == 0].tolist(),
         }
+
+
+def scan_scene(settings: dict, seed: int, out_dir=None, progress=False) -> FrequencyScanScene:
+    """The shared scan of an S3-S5 setting (``bbdyn.scans.cache.diffusion_scan``: loaded,
+    computed or resumed) as the scenes' result, tongues at the default parameters."""
+    scan = diffusion_scan(settings, seed, out_dir, progress)
+    return FrequencyScanScene.from_scan(scan, Params(f=60.0))

@@ -68,6 +68,33 @@ def _check_ids(only: Iterable[str] | None, known: Iterable[str]) -> list[str]:
     return ids
 
 
+def cost_lines(ids: Iterable[str], setting: str, root: str | Path = SOURCE_ROOT) -> list[str]:
+    """What running scenes ``ids`` at ``setting`` will cost, one line per scene that has a
+    ``cost(settings)`` (the scans): the event model's upper bound of the CPU time, and the
+    wall time of the same scene at the same settings in ``<root>/docs/figures``, if any."""
+    from bbdyn.scans.progress import rough_duration
+
+    figures = Path(root) / "docs" / "figures"
+    measured = {}
+    if figures.is_dir():
+        for r in figure_records(figures):
+            if r["pre"] is None:
+                measured[(r["scene"], json.dumps(r["settings"], sort_keys=True))] = r
+    lines = []
+    for scene_id in ids:
+        module = scene_module(scene_id)
+        if not hasattr(module, "cost"):
+            continue
+        settings = scene_settings(scene_id, setting)
+        line = f"{scene_id}: at most {rough_duration(module.cost(settings))} of CPU time"
+        same = measured.get((scene_id, json.dumps(settings, sort_keys=True)))
+        if same is not None:
+            line += (f"; measured {rough_duration(float(same['run'].split()[0]))} wall for "
+                     f"docs/figures/{same['name']} (commit {_commit_text(same)})")  # fmt: skip
+        lines.append(line)
+    return lines
+
+
 def reproduce(
     out_dir: str | Path = "out",
     *,
@@ -75,11 +102,14 @@ def reproduce(
     seed: int = 0,
     only: Iterable[str] | None = None,
     progress: Callable[[str], None] | None = None,
+    scan_progress=False,
 ) -> Path:
     """Run the scenes at ``setting`` (the ids in ``only``, or else every scene that has
     ``setting``), save figures and data in ``out_dir``; return its ``index.md``, which lists
     every scene saved there (those not rerun keep their entries).  A scene in ``only``
-    without ``setting`` raises before anything runs."""
+    without ``setting`` raises before anything runs.  ``progress`` receives the cost
+    estimate (``cost_lines``) first, then a line per finished scene; ``scan_progress`` goes
+    to the scans (as in ``bbdyn.scans.runner.run_scan``)."""
     out_dir = Path(out_dir)
     if only is None:
         ids = [s for s in SCENES if hasattr(scene_module(s), SETTINGS[setting])]
@@ -87,8 +117,13 @@ def reproduce(
         ids = _check_ids(only, SCENES)
     for scene_id in ids:
         scene_settings(scene_id, setting)  # fail early, before any long computation
+    if progress:
+        for line in cost_lines(ids, setting):
+            progress(f"cost estimate: {line}")
     for scene_id in ids:
-        result, png = run_scene(scene_id, setting=setting, out_dir=out_dir, seed=seed)
+        result, png = run_scene(
+            scene_id, setting=setting, out_dir=out_dir, seed=seed, progress=scan_progress
+        )
         if progress:
             progress(f"{scene_id}: {png} ({result.meta['scene_wall_s']:.1f} s)")
     return write_index(out_dir)
@@ -100,6 +135,7 @@ def reproduce_docs(
     seed: int = 0,
     root: str | Path = SOURCE_ROOT,
     progress: Callable[[str], None] | None = None,
+    scan_progress=False,
 ) -> Path:
     """Make the figures of ``<root>/docs/figures`` (``DOCS_FIGURES``; all, or the ids in
     ``only``) and rewrite the figure table of ``<root>/docs/results.md``; return its path.
@@ -123,6 +159,7 @@ def reproduce_docs(
             seed=seed,
             name=name,
             scan_root=root / "out",
+            progress=scan_progress,
         )
         if progress:
             progress(f"{scene_id}: {png} ({result.meta['scene_wall_s']:.1f} s)")

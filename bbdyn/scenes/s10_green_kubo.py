@@ -39,7 +39,7 @@ class SceneS10Result(Result):
         return ax if ax is not None else fig.axes[0]
 
 
-def compute(settings: dict, seed: int = 0, out_dir=None) -> SceneS10Result:
+def compute(settings: dict, seed: int = 0, out_dir=None, progress=False) -> SceneS10Result:
     """Scan ``settings`` (grid in Hz, ``n``, ``t`` s, ``nmax``, ``orders``); the scan is kept
     in ``bbdyn.scans.cache.scene_folder("gk", settings, seed, out_dir)``, so a rerun resumes it."""
     from bbdyn import Params
@@ -49,7 +49,7 @@ def compute(settings: dict, seed: int = 0, out_dir=None) -> SceneS10Result:
     orders = np.array(sorted(set(settings["orders"])), dtype=int)
     if orders[0] < 0 or orders[-1] > nmax:
         raise ValueError(f"orders must lie in [0, nmax = {nmax}], got {orders.tolist()}")
-    arrays, scan_meta = scan_points(settings, seed, out_dir, keys=KEYS)
+    arrays, scan_meta = scan_points(settings, seed, out_dir, keys=KEYS, progress=progress)
     arrays["orders"] = orders
     D, D_err = arrays["D"], arrays["D_err"]
     key = {"frequencies": f"{D.size} from {arrays['f'][0]:g} to {arrays['f'][-1]:g} Hz"}

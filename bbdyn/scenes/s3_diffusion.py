@@ -11,21 +11,26 @@ from __future__ import annotations
 
 import numpy as np
 
-from bbdyn.params import Params
-from bbdyn.scans.cache import diffusion_scan
+from bbdyn.scans.frequency import cpu_estimate, frequency_grid
 from bbdyn.scenes import figure_axes
-from bbdyn.scenes.frequency_scene import FrequencyScanScene
+from bbdyn.scenes.frequency_scene import FrequencyScanScene, scan_scene
 
 TITLE = "Diffusion coefficient D(f) with standard errors and the k/1 tongues"
 QUICK = {"f_start": 49.8, "f_stop": 95.0, "f_step": 1.0, "n": 100, "t": 20.0}
 FULL = {"f_start": 49.8, "f_stop": 95.0, "f_step": 0.2, "n": 1000, "t": 200.0}
 
 
-def compute(settings: dict, seed: int = 0, out_dir=None) -> FrequencyScanScene:
+def compute(settings: dict, seed: int = 0, out_dir=None, progress=False) -> FrequencyScanScene:
     """The shared scan of ``settings`` (computed or loaded) with S3's key numbers."""
-    scene = FrequencyScanScene.from_scan(diffusion_scan(settings, seed, out_dir), Params(f=60.0))
+    scene = scan_scene(settings, seed, out_dir, progress)
     scene.meta["key_numbers"] = key_numbers(scene)
     return scene
+
+
+def cost(settings: dict) -> float:
+    """Upper estimate of the CPU time (s) of the scan of ``settings`` (shared with S4, S5)."""
+    grid = frequency_grid(settings["f_start"], settings["f_stop"], settings["f_step"])
+    return cpu_estimate(grid.sum(), settings["n"], settings["t"])
 
 
 def key_numbers(scene: FrequencyScanScene) -> dict:

@@ -9,19 +9,17 @@ from __future__ import annotations
 
 import numpy as np
 
-from bbdyn.params import Params
-from bbdyn.scans.cache import diffusion_scan
 from bbdyn.scenes import figure_axes
-from bbdyn.scenes.frequency_scene import FrequencyScanScene
+from bbdyn.scenes.frequency_scene import FrequencyScanScene, scan_scene
 from bbdyn.scenes.s3_diffusion import FULL, QUICK
 
 TITLE = "Steady-state energy E(f) and the line A^2 w^2 / 2"
 __all__ = ["TITLE", "QUICK", "FULL", "compute", "draw"]
 
 
-def compute(settings: dict, seed: int = 0, out_dir=None) -> FrequencyScanScene:
+def compute(settings: dict, seed: int = 0, out_dir=None, progress=False) -> FrequencyScanScene:
     """The shared scan of ``settings`` with S4's key numbers."""
-    scene = FrequencyScanScene.from_scan(diffusion_scan(settings, seed, out_dir), Params(f=60.0))
+    scene = scan_scene(settings, seed, out_dir, progress)
     ratio = scene["E"] / scene["E_reference"]
     moving = scene["trapped"] == 0
     scene.meta["key_numbers"] = {

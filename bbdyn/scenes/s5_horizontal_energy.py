@@ -9,19 +9,17 @@ from __future__ import annotations
 
 import numpy as np
 
-from bbdyn.params import Params
-from bbdyn.scans.cache import diffusion_scan
 from bbdyn.scenes import figure_axes
-from bbdyn.scenes.frequency_scene import FrequencyScanScene
+from bbdyn.scenes.frequency_scene import FrequencyScanScene, scan_scene
 from bbdyn.scenes.s3_diffusion import FULL, QUICK
 
 TITLE = "Steady-state horizontal kinetic energy E_x(f)"
 __all__ = ["TITLE", "QUICK", "FULL", "compute", "draw"]
 
 
-def compute(settings: dict, seed: int = 0, out_dir=None) -> FrequencyScanScene:
+def compute(settings: dict, seed: int = 0, out_dir=None, progress=False) -> FrequencyScanScene:
     """The shared scan of ``settings`` with S5's key numbers."""
-    scene = FrequencyScanScene.from_scan(diffusion_scan(settings, seed, out_dir), Params(f=60.0))
+    scene = scan_scene(settings, seed, out_dir, progress)
     f, ex, err = scene["f"], scene["E_x"], scene["E_x_err"]
     i = int(np.argmax(ex))
     scene.meta["key_numbers"] = {

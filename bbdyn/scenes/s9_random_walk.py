@@ -39,25 +39,33 @@ class SceneS9Result(Result):
         return ax if ax is not None else fig.axes[0]
 
 
-def scan_points(settings: dict, seed: int, out_dir, *, keys):
+def scan_points(settings: dict, seed: int, out_dir, *, keys, progress=False):
     """The ``keys`` outputs of ``gk_scene_scan`` (computed or resumed), sorted by f."""
     from bbdyn.scans.cache import gk_scene_scan
 
-    scan = gk_scene_scan(settings, seed, out_dir)
+    scan = gk_scene_scan(settings, seed, out_dir, progress)
     order = np.argsort(scan.values)
     arrays = {"f": scan.values[order]}
     arrays.update({k: scan[k][order] for k in keys})
     return arrays, scan.meta
 
 
-def compute(settings: dict, seed: int = 0, out_dir=None) -> SceneS9Result:
+def cost(settings: dict) -> float:
+    """Upper estimate of the CPU time (s) of the scan of ``settings`` (shared with S10)."""
+    from bbdyn.scans.frequency import cpu_estimate, frequency_grid
+
+    grid = frequency_grid(settings["f_start"], settings["f_stop"], settings["f_step"])
+    return cpu_estimate(grid.sum(), settings["n"], settings["t"])
+
+
+def compute(settings: dict, seed: int = 0, out_dir=None, progress=False) -> SceneS9Result:
     """Scan the frequencies of ``settings`` (``f_start``, ``f_stop``, ``f_step`` in Hz, ``n``
     particles, ``t`` s) and collect D, D_rw, D_a, r; the scan is kept in
     ``bbdyn.scans.cache.scene_folder("gk", settings, seed, out_dir)``, so a rerun resumes it."""
     from bbdyn import Params
 
     start = time.perf_counter()
-    arrays, scan_meta = scan_points(settings, seed, out_dir, keys=KEYS)
+    arrays, scan_meta = scan_points(settings, seed, out_dir, keys=KEYS, progress=progress)
     f = arrays["f"]
     arrays["gamma"] = np.array([Params(f=v).gamma for v in f])
     p0 = Params(f=float(f[0]))
