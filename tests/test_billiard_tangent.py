@@ -221,3 +221,73 @@ def test_static_elastic_floor_is_hamiltonian():
         assert np.allclose(grad_energy(s1) @ J, grad_energy(s0), rtol=1e-9, atol=1e-9)
         assert np.allclose(J[:, 0], [1.0, 0.0, 0.0, 0.0], atol=1e-9)
         assert abs(np.linalg.det(J)) == pytest.approx(hdot(s0, kp) / hdot(s1, kp), rel=1e-9)
+
+
+# ---- the exponent (bbdyn.lyapunov.billiard_lyapunov) ---------------------------------------
+def test_gamma_below_one_gives_no_positive_exponent():
+    """Gamma < 1: every particle chatters, sticks and never leaves (the floor never pulls
+    away), so after the transient nothing moves: no exponent is positive."""
+    from bbdyn.core.status import STUCK_FOREVER
+    from bbdyn.lyapunov import billiard_lyapunov
+
+    p = Params(f=45.0)
+    assert p.gamma < 1
+    res = billiard_lyapunov(p, 8, t=2.0, transient=3.0, seed=4)
+    assert np.all(res["status"] == STUCK_FOREVER)
+    for per in ("second", "collision"):
+        lam = res.exponents(per)
+        assert not np.any(np.isnan(lam)) and np.all(lam <= 0.0), lam
+    assert res.summary()["lam1_per_s"] <= 0.0
+
+
+def test_same_seed_same_numbers_and_windows_add_up():
+    from bbdyn.lyapunov import billiard_lyapunov
+
+    p = Params(f=85.2)
+    a = billiard_lyapunov(p, 4, t=1.0, transient=0.5, windows=3, seed=7)
+    b = billiard_lyapunov(p, 4, t=1.0, transient=0.5, windows=3, seed=7)
+    for key in ("log_growth", "collisions", "duration", "initial"):
+        assert np.array_equal(a[key], b[key])
+    # the windows tile the measured second: their durations add up to it within a flight
+    assert np.all(np.abs(a["duration"].sum(axis=1) - 1.0) < 0.1)
+    total = a["log_growth"].sum(axis=1) / a["duration"].sum(axis=1)
+    assert np.array_equal(a.exponents("second"), total)
+
+
+def test_cli_json_equals_the_api(capsys):
+    import json
+
+    from bbdyn.cli import main
+    from bbdyn.lyapunov import billiard_lyapunov
+
+    argv = ["lyapunov", "--f", "70", "--R", "20", "--n", "3", "--t", "1", "--no-classify"]
+    assert main([*argv, "--json"]) == 0
+    out = json.loads(capsys.readouterr().out, parse_constant=lambda c: pytest.fail(c))
+    s = billiard_lyapunov(Params(f=70.0, R=20.0), 3, t=1.0, transient=2.0, seed=0).summary()
+    assert out["model"] == "billiard" and out["per"] == "ensemble"
+    for key in ("lam1_per_s", "lam1_per_s_se", "lam1_per_collision", "lam1_per_collision_se"):
+        assert out[key] == s[key]
+
+
+def test_locked_attractor_at_58_hz_has_the_top_orbits_exponent(capsys):
+    """At 58 Hz the classifier finds a creeping and a 1/1-locked attractor.  On the locked
+    one every flight lasts one period and lands nearly vertically; the arcs' curvature is
+    the same everywhere, so its exponent is that of the closed-form top orbit, log(mu) / T
+    (derivations/billiard_orbit_jacobian.py), to within the tilt of the flights."""
+    import json
+
+    from derivation_loader import load_derivation
+
+    from bbdyn.cli import main
+
+    assert main(["lyapunov", "--f", "58", "--n", "20", "--t", "10", "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["per"] == "attractor"
+    locked = [a for a in out["attractors"] if a["character"] == "locked"]
+    assert len(locked) == 1
+    D = load_derivation("billiard_orbit_jacobian")
+    p = Params(f=58.0)
+    mu = float(D.largest_multiplier().subs({D.alpha: p.alpha, D.beta: p.beta, D.R: p.R,
+                                            D.g: p.g, D.w: p.w, D.k: 1}))  # fmt: skip
+    assert locked[0]["lam1_per_collision"] == pytest.approx(math.log(mu), rel=0.01)
+    assert locked[0]["lam1_per_s"] == pytest.approx(math.log(mu) * p.f, rel=0.01)

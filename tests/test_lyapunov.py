@@ -262,13 +262,14 @@ def test_cli_json_is_strict_and_equals_the_api(capsys):
 
     from bbdyn.cli import main
 
-    assert main(["lyapunov", "--f", "120", "--alpha", "0.8", "--n", "3", "--t", "1", "--json"]) == 0
+    argv = ["lyapunov", "--flat", "--f", "120", "--alpha", "0.8", "--n", "3", "--t", "1"]
+    assert main([*argv, "--json"]) == 0
     out = json.loads(capsys.readouterr().out, parse_constant=lambda c: pytest.fail(c))
     s = flat_lyapunov(Params(f=120.0, alpha=0.8), 3, t=1.0, transient=2.0, seed=0).summary()
     for key in ("lam1_per_s", "lam1_per_s_se", "lam1_per_impact", "cond_lam1_per_s"):
         assert out[key] == (s[key] if math.isfinite(s[key]) else None)
     # a stuck ensemble: -inf is null in JSON, with the note saying so
-    assert main(["lyapunov", "--f", "58", "--n", "2", "--t", "0.5", "--json"]) == 0
+    assert main(["lyapunov", "--flat", "--f", "58", "--n", "2", "--t", "0.5", "--json"]) == 0
     out = json.loads(capsys.readouterr().out)
     assert out["lam1_per_s"] is None and out["stuck_fraction"] == 1.0 and "-inf" in out["note"]
 
