@@ -35,6 +35,7 @@ __all__ = [
     "billiard_lyapunov_from",
     "flat_lyapunov",
     "flat_lyapunov_from",
+    "top_orbit_exponent",
 ]
 
 #: Initial relative velocities are drawn in (0, V_BOX_HI] mm/s (as ``flatball.flat_ensemble``).
@@ -508,3 +509,21 @@ def billiard_lyapunov(
     if classify_attractors:
         res.meta["classification"] = cls.summary
     return res
+
+
+def top_orbit_exponent(params: Params, k: int) -> float:
+    """Largest exponent (1/s) of the vertical k/1 orbit on an arc top, in closed form.
+
+    The flat ball's k/1 orbit bouncing on the top of an arc (``xi = 0``, ``vx = 0``) is an
+    orbit of the billiard; its horizontal perturbations follow the curvature block
+    ``[[1, tau], [kappa, beta + kappa tau]]`` (``derivations/billiard_orbit_jacobian.py``)
+    with ``kappa tau = 4 pi^2 k^2 g (alpha + beta) / ((1 + alpha) w^2 R)``, whose
+    multiplier ``mu = (T + sqrt(T^2 - 4 beta)) / 2``, ``T = 1 + beta + kappa tau``, exceeds
+    1: the exponent is ``log(mu) / tau`` with ``tau = k / f``.  (Per collision: ``log mu``.)
+    """
+    k = _check_count("k", k)
+    p = params
+    kappa_tau = 4 * math.pi**2 * k**2 * p.g * (p.alpha + p.beta) / ((1 + p.alpha) * p.w**2 * p.R)
+    trace = 1 + p.beta + kappa_tau
+    mu = (trace + math.sqrt(trace * trace - 4 * p.beta)) / 2
+    return math.log(mu) * p.f / k

@@ -122,3 +122,13 @@ def test_largest_exponent_along_the_top_orbit_is_log_mu(f, k):
     assert abs(per_collision - math.log(mu)) < bound
     duration = (t_last[0] - o.phase_stable / (2 * math.pi)) / p.f  # s
     assert log[0] / duration == pytest.approx(math.log(mu) / o.tau, abs=bound / o.tau)
+
+
+def test_top_orbit_exponent_of_bbdyn_is_the_derived_multiplier():
+    from bbdyn.lyapunov import top_orbit_exponent
+
+    for f, k, R, beta in ((58.0, 1, 25.0, 0.99), (75.0, 2, 10.0, 0.9), (89.5, 3, 40.0, 0.5)):
+        p = Params(f=f, R=R, beta=beta)
+        mu = D.largest_multiplier().subs({D.alpha: p.alpha, D.beta: p.beta, D.R: p.R,
+                                          D.g: p.g, D.w: p.w, D.k: k})  # fmt: skip
+        assert top_orbit_exponent(p, k) == pytest.approx(float(sp.log(mu)) * f / k, rel=1e-12)

@@ -279,7 +279,12 @@ def test_scene_b5_marks_gamma_below_one_stuck_and_shades_the_closed_form_tongues
     from bbdyn.tongues import frequency_at_gamma, tongue_gamma_lo
 
     settings = dict(b5_lyapunov.QUICK, n_f=2, f_stop=60.0, n=2, t=0.5, transient=0.5)
+    settings.update(billiard_n_f=2, billiard_n=4, billiard_t=0.5, billiard_transient=0.5)
     res = b5_lyapunov.compute(settings, seed=0)
+    # the billiard at 49.8 Hz (Gamma < 1): trapped, nothing moves after the transient
+    assert b5_lyapunov.LABELS[int(res["b_regime"][0])] == "a"
+    att = res["att_lam1"][0]
+    assert res["b_lam1"][0] <= 0.0 and np.all(att[np.isfinite(att)] <= 0.0)
     assert res["f"][0] < frequency_at_gamma(1.0)  # 49.8 Hz: Gamma < 1
     assert res["stuck_fraction"][0] == 1.0 and res["lam1"][0] == -math.inf
     assert math.isnan(res["cond_lam1"][0])  # stuck for good during the transient
