@@ -17,7 +17,13 @@ from bbdyn.core.status import IMPACT, OK, STICK, STUCK_FOREVER
 from bbdyn.core.tangent import flat_tangent_run
 from bbdyn.lyapunov import flat_lyapunov, flat_lyapunov_from
 from bbdyn.params import Params
-from bbdyn.tongues import find_periodic_orbit, k1_orbit_numeric, params_at_gamma, tongue_gamma_hi
+from bbdyn.tongues import (
+    find_periodic_orbit,
+    k1_orbit,
+    k1_orbit_numeric,
+    params_at_gamma,
+    tongue_gamma_hi,
+)
 
 ALPHA = 0.5
 #: a chaotic flat ball (positive exponent, rare sticks) for the trajectory checks
@@ -249,11 +255,62 @@ def orbit_rows() -> list[str]:
     return rows
 
 
+def billiard_doc_rows() -> list[str]:
+    """The billiard's measured table in docs/lyapunov.md, recomputed: ``bbdyn lyapunov --f F``
+    (defaults n = 20, t = 20 s, transient = 2 s, seed = 0, classified), per attractor."""
+    from bbdyn.lyapunov import billiard_lyapunov
+
+    rows = []
+    for f in DOC_FREQS:
+        res = billiard_lyapunov(Params(f=f), 20, t=20.0, transient=2.0, seed=0,
+                                classify_attractors=True)  # fmt: skip
+        cls = res.meta["classification"]
+        groups = [("all", 1.0, res.summary())] + [
+            (f"{a['attractor']}: {cls['attractors'][a['attractor']]['character']}",
+             a["fraction"], a) for a in res.by_attractor()
+        ]  # fmt: skip
+        for name, fraction, g in groups:
+            windows = ", ".join(f"{x:.3g}" for x in g["window_cond_lam1_per_s"])
+            rows.append(
+                f"| {f:g} | {cls['regime']} | {name} | {fraction:.2f} "
+                f"| {_fmt(g['lam1_per_s'], g['lam1_per_s_se'])} "
+                f"| {_fmt(g['lam1_per_collision'], g['lam1_per_collision_se'])} "
+                f"| {g['collisions_per_s']:.1f} | {windows} |"
+            )
+    return rows
+
+
+def billiard_orbit_rows() -> list[str]:
+    """The top-orbit rows of docs/lyapunov.md: closed form against a tangent run of 4000
+    collisions started on the orbit."""
+    from bbdyn.core.billiard_tangent import billiard_tangent_run
+    from bbdyn.lyapunov import top_orbit_exponent
+
+    rows = []
+    for f, k in ((58.0, 1), (75.0, 2), (88.4, 3)):
+        p = Params(f=f)
+        o = k1_orbit(p, k)
+        n = 4000
+        vec, log, t_last = np.full(4, 0.5), np.zeros(1), np.zeros(1)
+        collisions, collapses = np.zeros(1, np.int64), np.zeros(1, np.int64)
+        state = (0.0, o.phase_stable, 0.0, 0.0, 0.0, o.vrel, IMPACT)
+        billiard_tangent_run(*state, p.kernel(), np.array([n * k + 0.5]), vec, log,
+                             collisions, collapses, t_last)  # fmt: skip
+        duration = (t_last[0] - o.phase_stable / (2 * math.pi)) / f
+        lam = top_orbit_exponent(p, k)
+        rows.append(
+            f"| {k}/1 | {f:g} | {math.exp(lam * k / f):.6f} | {lam * k / f:.5f} "
+            f"| {log[0] / collisions[0]:.5f} | {lam:.4f} | {log[0] / duration:.4f} "
+            f"| {int(collisions[0])} |"
+        )
+    return rows
+
+
 def test_numbers_in_the_docs_page_come_from_the_code():
     from pathlib import Path
 
     text = (Path(__file__).resolve().parents[1] / "docs" / "lyapunov.md").read_text()
-    for row in doc_rows() + orbit_rows():
+    for row in doc_rows() + orbit_rows() + billiard_doc_rows() + billiard_orbit_rows():
         assert row in text, row
 
 
