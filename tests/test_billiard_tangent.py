@@ -240,6 +240,17 @@ def test_gamma_below_one_gives_no_positive_exponent():
     assert res.summary()["lam1_per_s"] <= 0.0
 
 
+def test_a_particle_stuck_for_good_during_the_measurement_rests_until_its_end():
+    """Gamma < 1 without a transient: each particle bounces, sticks for good within the
+    measured 2 s, and rests there until the end: its windows cover the whole 2 s."""
+    from bbdyn.core.status import STUCK_FOREVER
+    from bbdyn.lyapunov import billiard_lyapunov
+
+    res = billiard_lyapunov(Params(f=45.0), 4, t=2.0, transient=0.0, windows=1, seed=4)
+    assert np.all(res["status"] == STUCK_FOREVER) and np.all(res["collisions"].sum(axis=1) > 0)
+    assert np.allclose(res["duration"].sum(axis=1), 2.0, rtol=0, atol=1e-9)
+
+
 def test_same_seed_same_numbers_and_windows_add_up():
     from bbdyn.lyapunov import billiard_lyapunov
 

@@ -100,7 +100,7 @@ from bbdyn.core.billiard import (
 from bbdyn.core.flat import stick_release
 from bbdyn.core.floor import arc_root, bounce
 from bbdyn.core.plate import TWO_PI, advance_phase
-from bbdyn.core.status import IMPACT, OK, RELEASE, STICK, STUCK_FOREVER
+from bbdyn.core.status import IMPACT, NON_FINITE, OK, RELEASE, STICK, STUCK_FOREVER
 
 
 @njit(cache=True, inline="always")
@@ -368,7 +368,10 @@ def billiard_tangent_run(
     Returns
     -------
     (periods, phase, tile, xi, vx, vyrel, kind, status)
-        The last event; ``status`` ``OK``, ``STUCK_FOREVER`` (Gamma <= 1) or a failure.
+        The last event; ``status`` ``OK``, ``STUCK_FOREVER`` (Gamma <= 1; the window it
+        sticks in ends at its end: it rests there), ``NON_FINITE`` (a non-finite tangent
+        vector: a grazing contact, whose event map has no derivative) or a failure of
+        the event kernel.
     """
     J = np.empty((4, 4))
     W = np.empty((4, 4))
@@ -385,7 +388,7 @@ def billiard_tangent_run(
             periods, phase, tile, xi, vx, vyrel, kind, kp, J, W, T
         )
         if status == STUCK_FOREVER:
-            out_time[j] = t
+            out_time[j] = max(t, t_ends[j])  # it rests on the floor to the window's end
             break
         if status != OK:
             break
@@ -397,6 +400,9 @@ def billiard_tangent_run(
         n2 = J[2, 0] * vec[0] + J[2, 1] * vec[1] + J[2, 2] * vec[2] + J[2, 3] * vec[3]
         n3 = J[3, 0] * vec[0] + J[3, 1] * vec[1] + J[3, 2] * vec[2] + J[3, 3] * vec[3]
         r = math.sqrt(n0 * n0 + n1 * n1 + n2 * n2 + n3 * n3)
+        if not math.isfinite(r):  # a grazing contact (V_n = 0): no derivative
+            status = NON_FINITE
+            break
         if collision:
             out_collisions[j] += 1
         if r > 0.0:
