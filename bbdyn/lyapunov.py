@@ -28,7 +28,15 @@ from bbdyn.core.tangent import flat_tangent_run
 from bbdyn.params import Params
 from bbdyn.results import Result, make_meta
 
-__all__ = ["LyapunovResult", "flat_lyapunov", "flat_lyapunov_from"]
+__all__ = [
+    "BilliardLyapunovResult",
+    "LyapunovResult",
+    "billiard_lyapunov",
+    "billiard_lyapunov_from",
+    "flat_lyapunov",
+    "flat_lyapunov_from",
+    "top_orbit_exponent",
+]
 
 #: Initial relative velocities are drawn in (0, V_BOX_HI] mm/s (as ``flatball.flat_ensemble``).
 V_BOX_HI = 40.0
@@ -112,22 +120,29 @@ class LyapunovResult(Result):
         return out
 
     def plot(self, ax=None):
-        import matplotlib.pyplot as plt
-
-        if ax is None:
-            _, ax = plt.subplots()
-        lam = self.window_exponents()
-        ax.plot(np.arange(1, lam.size + 1), lam, "o-")
-        ax.set(xlabel="window", ylabel="conditional largest exponent (1/s)")
-        return ax
+        return _plot_windows(self.window_exponents(), ax)
 
 
-def _denominator(per: str, impacts: np.ndarray, duration: np.ndarray) -> np.ndarray:
+def _plot_windows(lam: np.ndarray, ax=None):
+    """The conditional largest exponent of each window (1/s), the convergence check."""
+    import matplotlib.pyplot as plt
+
+    if ax is None:
+        _, ax = plt.subplots()
+    ax.plot(np.arange(1, lam.size + 1), lam, "o-")
+    ax.set(xlabel="window", ylabel="conditional largest exponent (1/s)")
+    return ax
+
+
+def _denominator(
+    per: str, counts: np.ndarray, duration: np.ndarray, count: str = "impact"
+) -> np.ndarray:
+    """Elapsed seconds (``per = "second"``) or the number of events (``per = count``)."""
     if per == "second":
         return duration
-    if per == "impact":
-        return impacts.astype(float)
-    raise ValueError(f"per must be 'second' or 'impact', got {per!r}")
+    if per == count:
+        return counts.astype(float)
+    raise ValueError(f"per must be 'second' or {count!r}, got {per!r}")
 
 
 def _check_positive(name: str, value, unit: str) -> float:
@@ -225,15 +240,22 @@ def _run_one(kp, phase, vrel, t0, t_ends, log_growth, impacts, collapses):
     start = state[0] + state[1] / TWO_PI
     ends = np.full(t_ends.size, np.nan)
     *_, status = flat_tangent_run(*state, kp, t_ends, frame, log_growth, impacts, collapses, ends)
+    return status, _window_durations(start, ends, t_ends, status, kp)
+
+
+def _window_durations(start, ends, t_ends, status, kp) -> np.ndarray:
+    """Durations (s) of the windows from the run's start and each window's last event (periods).
+
+    Stuck for good (``STUCK_FOREVER``): the rest of the measurement passes without events.
+    A window without events ends where the previous one did.
+    """
     if status == STUCK_FOREVER:
-        # stuck for good: the rest of the measurement passes without events
         ends[np.isnan(ends)] = t_ends[np.isnan(ends)]
-    # windows without events: their end is the previous window's
     filled = np.concatenate([[start], ends])
     for k in range(1, filled.size):
         if np.isnan(filled[k]):
             filled[k] = filled[k - 1]
-    return status, np.diff(filled) / (kp.w / TWO_PI)
+    return np.diff(filled) / (kp.w / TWO_PI)
 
 
 def flat_lyapunov(
@@ -262,3 +284,246 @@ def flat_lyapunov(
     )  # fmt: skip
     res.meta["seed"] = seed
     return res
+
+
+# ---- the billiard ----------------------------------------------------------------------------
+#: ``labels`` of particles that were not classified (``billiard_lyapunov``).
+NOT_CLASSIFIED = -3
+
+
+class BilliardLyapunovResult(Result):
+    """Growth of one tangent vector of an ensemble of billiard particles (largest exponent).
+
+    Arrays (n particles, w windows): ``log_growth`` (n, w) sums of ``log |J v| / |v|``
+    over the events of each window; ``collisions`` (n, w) IMPACT and STICK events;
+    ``collapses`` (n, w) sticks at a wedge (the whole tangent space collapses, the
+    exponent is ``-inf``); ``duration`` (n, w) seconds between the last events of
+    successive windows; ``status`` (n,); ``initial`` (n, 3) the initial conditions
+    ``(s, vx+, vy+)`` at t = 0 (mm, mm/s); ``labels`` (n,) the attractor of each particle
+    found by ``bbdyn.classify`` (``-1`` unsettled, ``-2`` failed, ``NOT_CLASSIFIED``).
+    Meta: ``n``, ``t``, ``transient``, ``windows``, params, seed.
+    """
+
+    kind = "billiard_lyapunov"
+
+    def _totals(self):
+        return (
+            self["log_growth"].sum(axis=1),
+            self["collisions"].sum(axis=1),
+            self["duration"].sum(axis=1),
+        )
+
+    def conditional_exponents(self, per: str = "second") -> np.ndarray:
+        """Largest exponent (n,) from the growth between collapses, per second (1/s) or per
+        collision; NaN for a particle without a collision in the measurement."""
+        growth, collisions, duration = self._totals()
+        denom = _denominator(per, collisions, duration, "collision")
+        with np.errstate(divide="ignore", invalid="ignore"):
+            lam = growth / denom
+        lam[collisions == 0] = math.nan
+        # stuck for good (Gamma <= 1) before or during the measurement: the state stays
+        # where it is, neighbouring states too, so the growth after the stick is zero
+        stuck = (self["status"] == STUCK_FOREVER) & (collisions == 0)
+        lam[stuck] = 0.0
+        return lam
+
+    def exponents(self, per: str = "second") -> np.ndarray:
+        """Largest exponent (n,) per second (1/s) or per collision; ``-inf`` for a collapse."""
+        lam = self.conditional_exponents(per)
+        lam[self["collapses"].sum(axis=1) > 0] = -math.inf
+        return lam
+
+    def window_exponents(self, per: str = "second", select=None) -> np.ndarray:
+        """Conditional largest exponent (w,) of each window, pooled over the (selected)
+        particles: the convergence check in time."""
+        sel = np.ones(self["status"].shape, bool) if select is None else select
+        growth = self["log_growth"][sel].sum(axis=0)
+        denom = _denominator(
+            per, self["collisions"][sel].sum(axis=0), self["duration"][sel].sum(axis=0),
+            "collision",
+        )  # fmt: skip
+        with np.errstate(divide="ignore", invalid="ignore"):
+            return growth / denom
+
+    def summary(self, select=None) -> dict:
+        """Means and standard errors over the (selected) particles.
+
+        Keys ``lam1_per_s``, ``lam1_per_s_se`` (1/s), ``lam1_per_collision``,
+        ``lam1_per_collision_se``: ``-inf`` (error NaN) if a particle collapsed; the same
+        with ``cond_`` for the growth between collapses; ``collapse_fraction``,
+        ``collisions_per_s``, ``n``, ``window_cond_lam1_per_s`` (1/s, per window).
+        """
+        sel = np.ones(self["status"].shape, bool) if select is None else np.asarray(select)
+        out = {"n": int(np.sum(sel))}
+        collapsed = self["collapses"][sel].sum(axis=1) > 0
+        for per, tag in (("second", "per_s"), ("collision", "per_collision")):
+            cond = self.conditional_exponents(per)[sel]
+            ok = np.isfinite(cond)
+            out[f"lam1_{tag}"], out[f"lam1_{tag}_se"] = (
+                (-math.inf, math.nan) if collapsed.any() else _mean_se(cond)
+            )
+            out[f"cond_lam1_{tag}"], out[f"cond_lam1_{tag}_se"] = (
+                _mean_se(cond[ok]) if ok.any() else (math.nan, math.nan)
+            )
+        _, collisions, duration = self._totals()
+        out["collapse_fraction"] = float(np.mean(collapsed)) if collapsed.size else math.nan
+        total = float(np.sum(duration[sel]))
+        out["collisions_per_s"] = float(np.sum(collisions[sel]) / total) if total > 0 else math.nan
+        out["window_cond_lam1_per_s"] = [float(x) for x in self.window_exponents(select=sel)]
+        return out
+
+    def by_attractor(self) -> list[dict]:
+        """``summary`` of the particles of each attractor (``labels >= 0``), with its
+        ``attractor`` label and ``fraction`` of the particles; [] if none was classified."""
+        labels = self["labels"]
+        out = []
+        for a in np.unique(labels[labels >= 0]):
+            sel = labels == a
+            out.append({"attractor": int(a), "fraction": float(np.mean(sel)), **self.summary(sel)})
+        return out
+
+    def plot(self, ax=None):
+        return _plot_windows(self.window_exponents(), ax)
+
+
+def billiard_lyapunov_from(
+    params: Params, states, *, t: float, transient: float = 0.0, windows: int = 4
+) -> BilliardLyapunovResult:
+    """Largest-exponent growth of billiard particles from kernel event states.
+
+    Parameters
+    ----------
+    params : Params
+    states : array_like (n, 7)
+        Event states ``(periods, phase, tile, xi, vx, vyrel, kind)`` (``core.billiard``),
+        e.g. ``bbdyn.ensemble.kernel_states``.
+    t : float
+        Measurement time (s) after the transient, split into ``windows`` equal windows.
+    transient : float
+        Time (s) run first with the tangent vector but not measured (>= 0).
+    windows : int
+        Number of windows (>= 1), for the convergence check.
+
+    Returns
+    -------
+    BilliardLyapunovResult
+        (``initial`` NaN, ``labels`` NOT_CLASSIFIED); raises ``RuntimeError`` naming the
+        particle if a kernel fails.  The tangent vector starts as ``(1, 1, 1, 1) / 2`` in
+        the section coordinates ``(theta, x, vx, vyrel)`` (rad, mm, mm/s, mm/s).
+    """
+    from bbdyn.core.billiard_tangent import billiard_tangent_run
+
+    t = _check_positive("t", t, "s")
+    transient = float(transient)
+    if not (math.isfinite(transient) and transient >= 0):
+        raise ValueError(f"transient must be a finite number >= 0 s, got {transient}")
+    windows = _check_count("windows", windows)
+    states = np.atleast_2d(np.asarray(states, float))
+    if states.ndim != 2 or states.shape[1] != 7 or not np.all(np.isfinite(states)):
+        raise ValueError(f"states must be a finite (n, 7) array, got shape {states.shape}")
+    kp = params.kernel()
+    start = time.perf_counter()
+    n = states.shape[0]
+    t0 = transient * params.f  # periods
+    t_ends = t0 + (t * params.f) * np.arange(1, windows + 1) / windows
+    log_growth = np.zeros((n, windows))
+    collisions = np.zeros((n, windows), np.int64)
+    collapses = np.zeros((n, windows), np.int64)
+    duration = np.zeros((n, windows))
+    status = np.zeros(n, np.int64)
+    for i in range(n):
+        state = (*states[i, :6], int(states[i, 6]))
+        vec = np.full(4, 0.5)
+        scratch = (np.zeros(1), np.zeros(1, np.int64), np.zeros(1, np.int64), np.zeros(1))
+        st = OK
+        if t0 > 0:
+            *state, st = billiard_tangent_run(*state, kp, np.array([t0]), vec, *scratch)
+        ends = np.full(windows, np.nan)
+        first = state[0] + state[1] / TWO_PI
+        if st == OK:
+            *_, st = billiard_tangent_run(
+                *state, kp, t_ends, vec, log_growth[i], collisions[i], collapses[i], ends
+            )
+        first = min(max(first, t0), t_ends[0])  # stuck for good in the transient: from t0
+        status[i] = st
+        if st not in (OK, STUCK_FOREVER):
+            raise RuntimeError(
+                f"particle {i} (state {tuple(states[i])}): {STATUS_MESSAGES[st]}"
+            )
+        duration[i] = _window_durations(first, ends, t_ends, st, kp)
+    arrays = dict(
+        log_growth=log_growth, collisions=collisions, collapses=collapses, duration=duration,
+        status=status, initial=np.full((n, 3), np.nan), labels=np.full(n, NOT_CLASSIFIED),
+    )  # fmt: skip
+    meta = make_meta(
+        params, wall_s=time.perf_counter() - start, n=n, t=t, transient=transient, windows=windows
+    )
+    return BilliardLyapunovResult(arrays, meta)
+
+
+def billiard_lyapunov(
+    params: Params,
+    n: int,
+    *,
+    t: float,
+    transient: float = 1.0,
+    windows: int = 4,
+    seed: int = 0,
+    classify_attractors: bool = False,
+    t_classify: float | None = None,
+) -> BilliardLyapunovResult:
+    """Largest Lyapunov exponent of ``n`` billiard particles from the reference box.
+
+    The initial conditions ``(s, vx+, vy+)`` at t = 0 are those of
+    ``bbdyn.ensemble.ensemble(params, n, seed=seed)`` (``initial_conditions``).  With
+    ``classify_attractors`` the same initial conditions are first classified by
+    ``bbdyn.classify.classify(params, t=t_classify, n=n, seed=seed)`` (``t_classify``
+    defaults to ``transient + t``), whose attractor labels are stored (``by_attractor``).
+    See ``billiard_lyapunov_from`` for ``t``, ``transient`` (s) and ``windows``.
+
+    Examples
+    --------
+    >>> res = billiard_lyapunov(Params(f=85.2), 2, t=1.0, transient=0.5, seed=1)
+    >>> res["log_growth"].shape
+    (2, 4)
+    """
+    from bbdyn.ensemble import initial_conditions, kernel_states
+
+    n = _check_count("n", n)
+    start = time.perf_counter()
+    labels = np.full(n, NOT_CLASSIFIED)
+    if classify_attractors:
+        from bbdyn.classify import classify
+
+        t_c = float(transient) + float(t) if t_classify is None else t_classify
+        cls = classify(params, t=t_c, n=n, seed=seed)
+        ics, labels = np.asarray(cls["initial"], float), np.asarray(cls["labels"])
+    else:
+        ics = initial_conditions(params, n, seed)
+    res = billiard_lyapunov_from(
+        params, kernel_states(params, ics), t=t, transient=transient, windows=windows
+    )
+    res.arrays["initial"] = ics
+    res.arrays["labels"] = labels
+    res.meta.update(seed=seed, wall_s=time.perf_counter() - start, classified=classify_attractors)
+    if classify_attractors:
+        res.meta["classification"] = cls.summary
+    return res
+
+
+def top_orbit_exponent(params: Params, k: int) -> float:
+    """Largest exponent (1/s) of the vertical k/1 orbit on an arc top, in closed form.
+
+    The flat ball's k/1 orbit bouncing on the top of an arc (``xi = 0``, ``vx = 0``) is an
+    orbit of the billiard; its horizontal perturbations follow the curvature block
+    ``[[1, tau], [kappa, beta + kappa tau]]`` (``derivations/billiard_orbit_jacobian.py``)
+    with ``kappa tau = 4 pi^2 k^2 g (alpha + beta) / ((1 + alpha) w^2 R)``, whose
+    multiplier ``mu = (T + sqrt(T^2 - 4 beta)) / 2``, ``T = 1 + beta + kappa tau``, exceeds
+    1: the exponent is ``log(mu) / tau`` with ``tau = k / f``.  (Per collision: ``log mu``.)
+    """
+    k = _check_count("k", k)
+    p = params
+    kappa_tau = 4 * math.pi**2 * k**2 * p.g * (p.alpha + p.beta) / ((1 + p.alpha) * p.w**2 * p.R)
+    trace = 1 + p.beta + kappa_tau
+    mu = (trace + math.sqrt(trace * trace - 4 * p.beta)) / 2
+    return math.log(mu) * p.f / k

@@ -12,13 +12,15 @@ import sys
 import pytest
 
 from bbdyn import Params, __version__, cli
-from bbdyn.commands import BILLIARD_OPTIONS, FLAT_OPTIONS, MODEL_MEANINGS
+from bbdyn.commands import BILLIARD_OPTIONS, MODEL_MEANINGS
 
 #: Commands that run the billiard, and the model options each takes (scan scans f).
+#: (lyapunov runs the billiard, or the flat ball with --flat, which needs --g.)
 BILLIARD_COMMANDS = {"simulate": BILLIARD_OPTIONS, "gk": BILLIARD_OPTIONS,
-                     "classify": BILLIARD_OPTIONS, "scan": BILLIARD_OPTIONS[1:]}  # fmt: skip
+                     "classify": BILLIARD_OPTIONS, "scan": BILLIARD_OPTIONS[1:],
+                     "lyapunov": (*BILLIARD_OPTIONS, "g")}  # fmt: skip
 #: Commands of the flat ball, and their model options.
-FLAT_COMMANDS = {"lyapunov": FLAT_OPTIONS, "tongues": ("A", "alpha", "g"), "doublings": ("alpha",)}
+FLAT_COMMANDS = {"tongues": ("A", "alpha", "g"), "doublings": ("alpha",)}
 TINY = ["--f", "85.2", "--n", "4", "--t", "1", "--seed", "3", "--threads", "1"]
 PARAMS_DEFAULTS = {f.name: f.default for f in dataclasses.fields(Params) if f.name != "f"}
 

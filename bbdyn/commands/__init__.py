@@ -186,8 +186,6 @@ MODEL_MEANINGS = {
 }
 #: The model options of a command that runs the billiard.
 BILLIARD_OPTIONS = ("f", "A", "alpha", "beta", "R", "d")
-#: The model options of a command of the flat bouncing ball (no scatterers, no sliding).
-FLAT_OPTIONS = ("f", "A", "alpha", "g")
 
 
 def add_model_arguments(parser, names=BILLIARD_OPTIONS, *, f_required: bool = True) -> None:

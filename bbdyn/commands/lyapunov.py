@@ -1,19 +1,28 @@
-"""`bbdyn lyapunov --f F [--A --alpha --g] [--n N --t T --seed S] [--json]`: Lyapunov exponents.
+"""`bbdyn lyapunov --f F [MODEL] [--n N --t T --seed S] [--flat] [--json]`: Lyapunov exponents.
 
-Runs ``bbdyn.lyapunov.flat_lyapunov`` (the flat ball: the billiard's tangent
-dynamics is not implemented yet, docs/lyapunov.md) and prints both exponents
-per second and per impact with their standard errors over the particles, the
-conditional exponents (growth between sticks), the stuck fraction and the
-largest exponent of each time window (convergence check).
+The billiard (default): ``bbdyn.lyapunov.billiard_lyapunov`` runs ``n`` particles from
+the reference box with one tangent vector each (docs/lyapunov.md) and prints the largest
+exponent per second and per collision with its standard error over particles, for the
+whole ensemble and, after classifying the same initial conditions with
+``bbdyn.classify`` (skip with ``--no-classify``), for each attractor the classifier
+finds; with the largest exponent of each time window (convergence check).
 
-JSON keys: ``model`` ("flat"), ``params`` (f Hz, A mm, g mm/s^2, alpha; beta, R, d
-unused by the flat ball), ``f``, ``gamma``, ``n``, ``t`` (s); ``lam1_per_s``,
-``lam2_per_s`` and ``cond_...`` (1/s), ``..._per_impact`` (per impact), each with ``_se``;
-``stuck_fraction``; ``window_cond_lam1_per_s`` (1/s); ``wall_s`` (s); ``units``.
+``--flat``: the flat ball (``bbdyn.lyapunov.flat_lyapunov``; ``--A --alpha --g`` only):
+both exponents per second and per impact, the conditional exponents (growth between
+sticks), the stuck fraction and the window exponents.
+
+JSON keys (billiard): ``model`` ("billiard"), ``params``, ``f``, ``gamma``, ``n``, ``t``
+(s), ``transient`` (s), ``per`` ("attractor" or "ensemble"); ``lam1_per_s``,
+``lam1_per_s_se`` (1/s), ``lam1_per_collision``, ``lam1_per_collision_se``, the same
+with ``cond_`` (growth between collapses), ``collapse_fraction``, ``collisions_per_s``,
+``window_cond_lam1_per_s`` (1/s) for the ensemble; ``attractors``: a list of the same
+keys with ``attractor``, ``fraction``, ``character``; ``regime``; ``wall_s``; ``units``.
+(flat): ``model`` ("flat"), ``lam1_per_s``, ``lam2_per_s`` and ``cond_...`` (1/s),
+``..._per_impact``, each with ``_se``; ``stuck_fraction``; ``window_cond_lam1_per_s``.
 """
 
 from bbdyn.commands import (
-    FLAT_OPTIONS,
+    BILLIARD_OPTIONS,
     add_model_arguments,
     finite,
     integer_in,
@@ -23,7 +32,7 @@ from bbdyn.commands import (
     units_of,
 )
 
-HELP = "Lyapunov exponents of the flat ball (tangent dynamics through impacts and sticks)"
+HELP = "Largest Lyapunov exponent of the billiard per attractor (or the flat ball's, --flat)"
 
 #: ``--n``: at least 2 particles for a standard error.
 n_type = integer_in("n", 2, 100_000, "the standard errors are over particles")
@@ -31,7 +40,7 @@ windows_type = integer_in("windows", 1, 1000, "the run is split into this many w
 
 
 def add_arguments(parser) -> None:
-    add_model_arguments(parser, FLAT_OPTIONS)
+    add_model_arguments(parser, (*BILLIARD_OPTIONS, "g"))
     parser.add_argument("--n", type=n_type, default=20, help="particles (default: 20)")
     parser.add_argument(
         "--t", type=finite, default=20.0, help="measured time in s (default: %(default)g)"
@@ -45,11 +54,25 @@ def add_arguments(parser) -> None:
         help="windows of the convergence check (default: %(default)s)",
     )  # fmt: skip
     parser.add_argument("--seed", type=seed, default=0, help="random seed (default: 0)")
+    parser.add_argument(
+        "--flat", action="store_true",
+        help="the flat ball instead of the billiard (uses --f --A --alpha --g; default: off)",
+    )  # fmt: skip
+    parser.add_argument(
+        "--no-classify", action="store_true",
+        help="billiard: report the whole ensemble only, without classifying the attractors "
+        "(default: off)",
+    )  # fmt: skip
     parser.add_argument("--json", action="store_true", help="print one JSON object")
 
 
 def lyapunov_summary(args) -> dict:
-    """Run the flat-ball exponents for ``args``; the summary dict with the window exponents."""
+    """Run the exponents for ``args`` (billiard, or the flat ball with ``--flat``)."""
+    return flat_summary(args) if args.flat else billiard_summary(args)
+
+
+def flat_summary(args) -> dict:
+    """The flat ball's summary dict with the window exponents."""
     from bbdyn.lyapunov import flat_lyapunov
 
     params = params_from(args)
@@ -67,6 +90,73 @@ def lyapunov_summary(args) -> dict:
     return out
 
 
+def billiard_summary(args) -> dict:
+    """The billiard's summary: the ensemble's, and each attractor's unless ``--no-classify``."""
+    from bbdyn.lyapunov import billiard_lyapunov
+
+    params = params_from(args)
+    classified = not args.no_classify
+    res = billiard_lyapunov(
+        params, args.n, t=args.t, transient=args.transient, windows=args.windows,
+        seed=args.seed, classify_attractors=classified,
+    )  # fmt: skip
+    out = {"model": "billiard", "params": params.to_dict(), "f": args.f, "gamma": params.gamma}
+    out.update(t=args.t, transient=args.transient, per="attractor" if classified else "ensemble")
+    out.update(res.summary())
+    if classified:
+        cls = res.meta["classification"]
+        characters = [a["character"] for a in cls["attractors"]]
+        out["attractors"] = [
+            {**a, "character": characters[a["attractor"]]} for a in res.by_attractor()
+        ]
+        out["regime"] = cls["regime"]
+        out["unsettled_fraction"] = cls["unsettled_fraction"]
+    if out["collapse_fraction"] > 0:
+        out["note"] = "exponent -inf (null in JSON): a particle stuck at a wedge"
+    out["wall_s"] = res.meta["wall_s"]
+    out["units"] = units_of(out)
+    return out
+
+
+def _billiard_lines(s: dict) -> list[str]:
+    lines = [
+        f"billiard, f = {s['f']:g} Hz (Gamma = {s['gamma']:.4f}), n = {s['n']}, "
+        f"t = {s['t']:g} s after {s['transient']:g} s",
+        f"{'':>30} {'lam1 (1/s)':>22} {'lam1 per collision':>24} {'collisions/s':>13}",
+    ]
+    groups = [("ensemble", s)] + [
+        (f"attractor {a['attractor']} ({a['character']}, {a['fraction']:.2f})", a)
+        for a in s.get("attractors", [])
+    ]
+    for name, g in groups:
+        lines.append(
+            f"{name:>30} {g['lam1_per_s']:>12.5g} +- {g['lam1_per_s_se']:<7.2g}"
+            f"{g['lam1_per_collision']:>14.5g} +- {g['lam1_per_collision_se']:<7.2g}"
+            f"{g['collisions_per_s']:>13.5g}"
+        )
+    if "regime" in s:
+        lines.append(f"regime {s['regime']}, unsettled fraction {s['unsettled_fraction']:.2f}")
+    windows = ", ".join(f"{x:.4g}" for x in s["window_cond_lam1_per_s"])
+    lines.append(f"ensemble lam1 per window (1/s): {windows}")
+    return lines
+
+
+def _flat_lines(s: dict) -> list[str]:
+    lines = [
+        f"flat ball, f = {s['f']:g} Hz (Gamma = {s['gamma']:.4f}), n = {s['n']}, t = {s['t']:g} s",
+        f"stuck at least once: {s['stuck_fraction']:.3f} of the particles (exponent -inf)",
+    ]
+    for tag, unit in (("per_s", "1/s"), ("per_impact", "per impact")):
+        for pre, what in (("", "exponents"), ("cond_", "conditional (between sticks)")):
+            vals = [
+                f"{s[f'{pre}lam{i}_{tag}']:.5g} +- {s[f'{pre}lam{i}_{tag}_se']:.2g}" for i in (1, 2)
+            ]
+            lines.append(f"{what:>30} {unit:>10}: lam1 = {vals[0]}, lam2 = {vals[1]}")
+    windows = ", ".join(f"{x:.4g}" for x in s["window_cond_lam1_per_s"])
+    lines.append(f"conditional lam1 per window (1/s): {windows}")
+    return lines
+
+
 def run(args) -> int:
     import json
 
@@ -74,16 +164,5 @@ def run(args) -> int:
     if args.json:
         print(json.dumps(jsonable(s), indent=2))
         return 0
-    print(
-        f"flat ball, f = {s['f']:g} Hz (Gamma = {s['gamma']:.4f}), n = {s['n']}, t = {s['t']:g} s"
-    )
-    print(f"stuck at least once: {s['stuck_fraction']:.3f} of the particles (exponent -inf)")
-    for tag, unit in (("per_s", "1/s"), ("per_impact", "per impact")):
-        for pre, what in (("", "exponents"), ("cond_", "conditional (between sticks)")):
-            vals = [
-                f"{s[f'{pre}lam{i}_{tag}']:.5g} +- {s[f'{pre}lam{i}_{tag}_se']:.2g}" for i in (1, 2)
-            ]
-            print(f"{what:>30} {unit:>10}: lam1 = {vals[0]}, lam2 = {vals[1]}")
-    windows = ", ".join(f"{x:.4g}" for x in s["window_cond_lam1_per_s"])
-    print(f"conditional lam1 per window (1/s): {windows}")
+    print("\n".join(_flat_lines(s) if args.flat else _billiard_lines(s)))
     return 0

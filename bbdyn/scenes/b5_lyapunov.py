@@ -1,37 +1,68 @@
 """Scene B5: the largest Lyapunov exponent against the driving frequency over the S3 range.
 
-The flat ball (``bbdyn.lyapunov.flat_lyapunov``; the billiard's tangent
-dynamics is not implemented yet, docs/lyapunov.md): at each frequency an
-ensemble of particles, the largest exponent per second with one standard error
-over particles.  Where a particle sticks its exponent is ``-inf``; the figure
-then shows the conditional exponent (growth between sticks) with an open
-marker, and the fraction of particles that stuck.  The shaded bands are the
-frequencies of the flat ball's stable k/1 orbits (closed-form Arnold tongues,
-``bbdyn.tongues``), where the exponent must be negative.
+Top panel, the billiard (``bbdyn.lyapunov.billiard_lyapunov``): at each frequency the
+reference box is classified (``bbdyn.classify``) and the largest exponent per second is
+drawn for each attractor with one standard error over its particles (marker by the
+attractor's character), over bands of the regime label (colours of scene B1).  The
+dashed lines are the closed-form exponent of the vertical k/1 orbit on an arc top
+(``top_orbit_exponent``) inside the flat ball's k/1 tongues, where it exists.
+
+Bottom panel, the flat ball (``bbdyn.lyapunov.flat_lyapunov``): at each frequency an
+ensemble of particles, the largest exponent per second with one standard error over
+particles.  Where a particle sticks its exponent is ``-inf``; the figure then shows the
+conditional exponent (growth between sticks) with an open marker, and the fraction of
+particles that stuck.  The shaded bands are the frequencies of the flat ball's stable
+k/1 orbits (closed-form Arnold tongues, ``bbdyn.tongues``), where the exponent must be
+negative.
 """
 
 from __future__ import annotations
 
+import math
 import time
 
 import numpy as np
 
-from bbdyn.lyapunov import flat_lyapunov
+from bbdyn.lyapunov import billiard_lyapunov, flat_lyapunov, top_orbit_exponent
 from bbdyn.params import Params
 from bbdyn.results import Result, make_meta
 from bbdyn.scenes import figure_axes
+from bbdyn.scenes.b1_regime_map import LABELS, regime_bands
 from bbdyn.tongues import frequency_at_gamma, tongue_gamma_hi, tongue_gamma_lo
 
-TITLE = "Largest Lyapunov exponent of the flat ball against f (S3 range), k/1 tongues shaded"
-QUICK = {"f_start": 49.8, "f_stop": 95.0, "n_f": 10, "n": 6, "t": 4.0, "transient": 1.0}
-MEDIUM = {"f_start": 49.8, "f_stop": 95.0, "n_f": 46, "n": 20, "t": 20.0, "transient": 2.0}
-FULL = {"f_start": 49.8, "f_stop": 95.0, "n_f": 227, "n": 50, "t": 50.0, "transient": 5.0}
+TITLE = (
+    "Largest Lyapunov exponent against f (S3 range): billiard per attractor with regime "
+    "bands; flat ball with k/1 tongues"
+)
+#: ``billiard_*``: the billiard's grid and ensemble (classified per frequency).
+QUICK = {
+    "f_start": 49.8, "f_stop": 95.0, "n_f": 10, "n": 6, "t": 4.0, "transient": 1.0,
+    "billiard_n_f": 6, "billiard_n": 12, "billiard_t": 5.0, "billiard_transient": 1.0,
+}  # fmt: skip
+MEDIUM = {
+    "f_start": 49.8, "f_stop": 95.0, "n_f": 46, "n": 20, "t": 20.0, "transient": 2.0,
+    "billiard_n_f": 46, "billiard_n": 20, "billiard_t": 20.0, "billiard_transient": 2.0,
+}  # fmt: skip
+FULL = {
+    "f_start": 49.8, "f_stop": 95.0, "n_f": 227, "n": 50, "t": 50.0, "transient": 5.0,
+    "billiard_n_f": 227, "billiard_n": 50, "billiard_t": 50.0, "billiard_transient": 5.0,
+}  # fmt: skip
+#: Characters of an attractor (``bbdyn.classify``), in the order of the stored codes.
+CHARACTERS = ("at rest", "locked", "creeping", "intermittent", "irregular")
+#: Attractors stored per frequency (more are dropped, the smallest basins first).
+MAX_ATTRACTORS = 4
 
 
 class SceneB5Result(Result):
-    """Arrays (n_f,): ``f`` (Hz), ``lam1``/``lam1_se`` (1/s; -inf if a particle stuck),
-    ``cond_lam1``/``cond_lam1_se`` (1/s, between sticks), ``stuck_fraction``,
-    ``lam1_per_impact``/``cond_lam1_per_impact``; ``tongues`` (k, 2) k/1 frequency bands (Hz)."""
+    """Flat ball, arrays (n_f,): ``f`` (Hz), ``lam1``/``lam1_se`` (1/s; -inf if a particle
+    stuck), ``cond_lam1``/``cond_lam1_se`` (1/s, between sticks), ``stuck_fraction``,
+    ``lam1_per_impact``/``cond_lam1_per_impact``; ``tongues`` (k, 2) k/1 frequency bands (Hz).
+
+    Billiard, arrays (m,): ``b_f`` (Hz), ``b_lam1``/``b_lam1_se`` (1/s, whole ensemble),
+    ``b_lam1_per_collision``, ``b_collapse_fraction``, ``b_regime`` (codes into
+    ``b1_regime_map.LABELS``); (m, MAX_ATTRACTORS), NaN-padded: ``att_lam1``/``att_lam1_se``
+    (1/s), ``att_lam1_per_collision``/``_se``, ``att_fraction``, ``att_character`` (codes
+    into ``CHARACTERS``, -1 none)."""
 
     kind = "scene_b5"
 
@@ -73,14 +104,106 @@ def compute(settings: dict, seed: int = 0) -> SceneB5Result:
     p = Params(f=float(freqs[0]))
     arrays["f"] = freqs
     arrays["tongues"] = tongue_bands(p.alpha, freqs[0], freqs[-1], p.A, p.g)
+    arrays.update(billiard_arrays(settings, seed))
     meta = make_meta(p, seed=seed, wall_s=time.perf_counter() - start, **settings)
     return SceneB5Result(arrays, meta)
 
 
+def billiard_arrays(settings: dict, seed: int) -> dict:
+    """The billiard's exponents per frequency and attractor (see ``SceneB5Result``)."""
+    freqs = np.linspace(settings["f_start"], settings["f_stop"], int(settings["billiard_n_f"]))
+    m = freqs.size
+    scalars = ("b_lam1", "b_lam1_se", "b_lam1_per_collision", "b_collapse_fraction", "b_regime")
+    out = {k: np.full(m, math.nan) for k in scalars}
+    for key in ("att_lam1", "att_lam1_se", "att_lam1_per_collision", "att_lam1_per_collision_se",
+                "att_fraction", "att_character"):  # fmt: skip
+        out[key] = np.full((m, MAX_ATTRACTORS), math.nan)
+    out["att_character"][:] = -1
+    for i, f in enumerate(freqs):
+        res = billiard_lyapunov(
+            Params(f=float(f)), int(settings["billiard_n"]), t=float(settings["billiard_t"]),
+            transient=float(settings["billiard_transient"]), seed=seed, classify_attractors=True,
+        )  # fmt: skip
+        s = res.summary()
+        out["b_lam1"][i], out["b_lam1_se"][i] = s["lam1_per_s"], s["lam1_per_s_se"]
+        out["b_lam1_per_collision"][i] = s["lam1_per_collision"]
+        out["b_collapse_fraction"][i] = s["collapse_fraction"]
+        cls = res.meta["classification"]
+        out["b_regime"][i] = LABELS.index(cls["regime"])
+        atts = sorted(res.by_attractor(), key=lambda a: -a["fraction"])[:MAX_ATTRACTORS]
+        for j, a in enumerate(atts):
+            out["att_lam1"][i, j], out["att_lam1_se"][i, j] = a["lam1_per_s"], a["lam1_per_s_se"]
+            out["att_lam1_per_collision"][i, j] = a["lam1_per_collision"]
+            out["att_lam1_per_collision_se"][i, j] = a["lam1_per_collision_se"]
+            out["att_fraction"][i, j] = a["fraction"]
+            character = cls["attractors"][a["attractor"]]["character"]
+            out["att_character"][i, j] = CHARACTERS.index(character)
+    out["b_f"] = freqs
+    return out
+
+
 def draw(result: Result, ax=None):
+    """Billiard (top; on ``ax`` alone if given) and flat ball (bottom); returns the Figure."""
+    has_billiard = "b_f" in result.arrays
+    if ax is not None:
+        (draw_billiard if has_billiard else draw_flat)(result, ax)
+        return ax.figure
+    import matplotlib.pyplot as plt
+
+    if not has_billiard:  # a result saved before the billiard was added
+        fig, ax = figure_axes(None, figsize=(7.0, 4.5))
+        draw_flat(result, ax)
+        fig.tight_layout()
+        return fig
+    fig, axes = plt.subplots(2, 1, figsize=(7.5, 8.0), sharex=True)
+    draw_billiard(result, axes[0])
+    draw_flat(result, axes[1])
+    fig.tight_layout()
+    return fig
+
+
+def draw_billiard(result: Result, ax) -> None:
+    """Largest exponent of each attractor against f over the regime bands, and the closed-form
+    top-orbit exponents inside the flat k/1 tongues."""
+    import matplotlib.pyplot as plt
+
+    colors = plt.get_cmap("tab10")
+    bands = {"f": result["b_f"], "regime": result["b_regime"]}
+    seen = set()
+    for lo, hi, lab in regime_bands(bands):
+        ax.axvspan(lo, hi, color=colors(LABELS.index(lab)), alpha=0.18,
+                   label=f"regime {lab}" if lab not in seen else None)  # fmt: skip
+        seen.add(lab)
+    markers = {"at rest": "s", "locked": "D", "creeping": "v", "intermittent": "o",
+               "irregular": "^"}  # fmt: skip
+    f = result["b_f"]
+    for code, name in enumerate(CHARACTERS):
+        sel = result["att_character"] == code
+        if not sel.any():
+            continue
+        rows = np.nonzero(sel)[0]
+        lam, se = result["att_lam1"][sel], result["att_lam1_se"][sel]
+        finite = np.isfinite(lam)
+        ax.errorbar(f[rows][finite], lam[finite], se[finite], fmt=markers[name], ms=4,
+                    color="k", mfc="w" if name == "creeping" else "k", label=name)  # fmt: skip
+    p = Params(f=float(f[0]))
+    k = 1
+    while (lo := frequency_at_gamma(tongue_gamma_lo(k, p.alpha), p.A, p.g)) < f[-1]:
+        hi = min(frequency_at_gamma(tongue_gamma_hi(k, p.alpha), p.A, p.g), f[-1])
+        fk = np.linspace(max(lo, f[0]), hi, 30)
+        lam_k = [top_orbit_exponent(Params(f=float(x)), k) for x in fk]
+        ax.plot(fk, lam_k, "C3--", lw=1.2, label="top orbit k/1 (closed form)" if k == 1 else None)
+        k += 1
+    ax.axhline(0.0, color="k", lw=0.6)
+    ax.set(ylabel="largest exponent (1/s)", yscale="symlog")
+    ax.margins(y=0.1)
+    ax.set_title("Billiard: largest Lyapunov exponent per attractor")
+    ax.legend(fontsize=7, ncol=3, loc="lower right")
+
+
+def draw_flat(result: Result, ax) -> None:
     """Largest exponent (filled: all particles free; open: conditional, some stuck) against f,
-    the stuck fraction on a second axis, k/1 tongues shaded; returns the Figure."""
-    fig, ax = figure_axes(ax, figsize=(7.0, 4.5))
+    the stuck fraction on a second axis, k/1 tongues shaded."""
     f = result["f"]
     for i, (lo, hi) in enumerate(result["tongues"]):
         ax.axvspan(
@@ -99,5 +222,3 @@ def draw(result: Result, ax=None):
     ax2.set(ylabel="fraction of particles that stuck", ylim=(-0.02, 1.02))
     ax.set_title("Flat ball: largest Lyapunov exponent")
     ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.14), ncol=3, fontsize=7)
-    fig.tight_layout()
-    return fig

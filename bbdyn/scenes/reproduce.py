@@ -236,9 +236,10 @@ def settings_text(settings: dict | str) -> str:
     if {"f_start", "f_stop", "f_step"} <= rest.keys():
         start, stop, step = (rest.pop(k) for k in ("f_start", "f_stop", "f_step"))
         words.append(f"f = {start:g} to {stop:g} Hz in steps of {step:g} Hz")
-    if {"f_min", "f_max", "n_f"} <= rest.keys():
-        lo, hi, count = (rest.pop(k) for k in ("f_min", "f_max", "n_f"))
-        words.append(f"f = {lo:g} to {hi:g} Hz at {count:g} frequencies")
+    for lo_key, hi_key in (("f_min", "f_max"), ("f_start", "f_stop")):
+        if {lo_key, hi_key, "n_f"} <= rest.keys():
+            lo, hi, count = (rest.pop(k) for k in (lo_key, hi_key, "n_f"))
+            words.append(f"f = {lo:g} to {hi:g} Hz at {count:g} frequencies")
     if "f" in rest:
         words.append(f"f = {_value_text(rest.pop('f'))} Hz")
     if "n" in rest:

@@ -1,0 +1,417 @@
+"""Tangent dynamics of the billiard through every event (docs/lyapunov.md), numba kernels.
+
+The reference trajectory is the exact event kernel's (``core.billiard``: the
+event is ``billiard_flight``, ``advance_phase``, ``collide``, exactly as in
+``billiard_event``; ``tests/test_billiard_tangent.py`` checks bitwise equality).
+Along it, the Jacobian of the *event map* is built event by event.
+
+Coordinates.  An event state (just after an IMPACT, a STICK or a RELEASE; the
+particle is on the floor) has the *section coordinates*
+
+    q = (theta, x, vx, vyrel)      (rad, mm, mm/s, mm/s),
+
+``theta = w t`` lifted (not reduced mod 2 pi), ``x = tile d + xi`` the lifted
+horizontal position, ``vyrel = vy - u(t)``.  The event map ``q_n -> q_{n+1}``
+has the 4x4 Jacobian ``J_n``, built from the flow's tangent ``dz`` at a *fixed
+time*, ``z = (x, y, vx, vy)`` (``vy`` absolute):
+
+    J_n = C(q_{n+1}) S_k ... S_1 Phi(tau) E(q_n).
+
+Floor gap.  ``h(z, t) = y - y_p(t) - b(xi)``, ``grad h = (-b', 1, 0, 0)`` with
+``b' = -xi / S``, ``S = sqrt(R^2 - xi^2)``, ``h_t = -u(t)``; its rate along the
+motion is ``hdot = grad h . f + h_t = vyrel - b' vx = R V_n / S`` (``V_n`` the
+normal relative velocity).  ``u = -A w cos theta``, ``a = A w^2 sin theta``.
+
+E (event -> fixed time).  A start moved by ``dq`` happens at ``t + dt``
+(``dt = dtheta / w``) at ``(x + dx, y_p(t + dt) + b(xi + dx))``; carried back to
+``t`` along the flight that leaves it (``f+ = (vx, vy, 0, -g)``):
+
+    dx_z = dx - vx dt,   dy = b' dx - vyrel dt,   dvx_z = dvx,   dvy = dvyrel + (a + g) dt.
+
+C (fixed time -> event), its inverse on the floor: the event of the perturbed
+trajectory is where it meets the floor, ``dt = -(dy - b' dx) / hdot+`` (needs the
+departure to be transversal, ``V_n+ > 0``, i.e. alpha > 0), then
+
+    dtheta = w dt,   dx = dx_z + vx dt,   dvx = dvx_z,   dvyrel = dvy - (a + g) dt.
+
+Phi (flight, duration tau).  Gravity is uniform: ``dx += tau dvx``,
+``dy += tau dvy``; wedge crossings during the flight are not events of the flow.
+
+S (saltation matrix of an impact on the moving arc).  The impact map at the
+contact ``xi`` is ``v+ = U + B(xi) (v- - U)``, ``U = (0, u(t))``,
+
+    B = -alpha n n^T + beta t t^T,    n = (xi, S) / R,   t = (S, -xi) / R,
+
+positions unchanged.  The impact time depends on the state through the gap
+(``dt_c = -grad h . dz- / hdot-``: the floor's height *and* its motion), the
+reflection on the state through the normal at the impact point
+(``dn/dxi = t / S``, ``dt/dxi = -n / S``) and on the time through ``U``.
+Differentiating ``z+(t_c + dt_c) `` and carrying it back to the reference time,
+
+    S = Dg + (f+ - Dg f- - g_t) grad h^T / hdot-,
+
+    Dg = [[1, 0, 0, 0], [0, 1, 0, 0], [p, 0, B]],   g_t = (0, 0, (I - B) (0, a)),
+    p = (dB/dxi) w = -(alpha + beta) (t V_n + n V_t) / S,   f+- = (vx+-, vy+-, 0, -g),
+
+``w = v- - U = (V_n, V_t)`` in the (n, t) frame.  ``det S = det B hdot+ / hdot-
+= -alpha beta hdot+ / hdot-``, so along a trajectory ``sum log |det J_n|`` is
+``log (alpha beta)`` per reflection plus the telescoped ``log hdot+_0 / hdot+_N``
+(tested).  A wedge contact (the wedge rule of ``collide``) is a chain of
+saltation matrices at the same point and time, alternately with the normal of
+the arc the particle came over and of its neighbour (``S_k ... S_1``; the
+reflections are those ``wedge_reflect`` makes); it is the limit of an impact
+close to the wedge followed at once by one on the neighbour.
+
+Sticking: the tangent space collapses onto the floor.  A chattering sequence
+summed in closed form (``chatter_sum``) ends at the stick point
+
+    xi_s = xi cos(ds / R) + S sin(ds / R),    theta_s = theta + w tau_inf,
+
+with ``tau_inf, ds`` functions of ``(theta, xi, V_n, V_t)`` just after the last
+impact (``g_eff = g + a``, ``g_n = (g_eff S - V_t^2) / R``, ``tau_0 = 2 V_n / g_n``,
+``tau_inf = tau_0 / (1 - alpha)``, ``g_t = g_eff xi / R``,
+``ds = V_t tau_0 c_1 + g_t tau_0^2 c_2`` with ``c_1 = 1 / (1 - alpha beta)``,
+``c_2 = alpha beta / ((1 - alpha^2)(1 - alpha beta)) + 1 / (2 (1 - alpha^2))``).
+Its Jacobian ``K`` has only the rows ``theta_s`` and ``x_s``: the velocity
+components ``dvx, dvyrel`` vanish (the particle rests on the floor).  A stick
+at a wedge (a drift clamped there, a wedge collapse, ``V_n = 0``) pins the
+position too: ``J = 0``, a *collapse* of the whole tangent space.
+
+Release.  A stick ends at ``theta_r = pi + asin(1/Gamma)`` (``stick_release``),
+which does not depend on the state: the release's Jacobian is
+``diag(0, 1, 0, 0)`` (only the stick point ``x_s`` is carried; the particle
+leaves with the floor's velocity).  A stick inside the release window ends at
+once, at the stick's own time: then ``dtheta_r = dtheta_s``, ``diag(1, 1, 0, 0)``.
+So at every stick the tangent space collapses onto the one direction along the
+floor; the largest exponent stays finite unless the particle sticks at a wedge.
+"""
+
+import math
+
+import numpy as np
+from numba import njit
+
+from bbdyn.core.billiard import (
+    billiard_flight,
+    collide,
+    snap_to_wedge,
+    wedge_reflect,
+)
+from bbdyn.core.flat import stick_release
+from bbdyn.core.floor import arc_root, bounce
+from bbdyn.core.plate import TWO_PI, advance_phase
+from bbdyn.core.status import IMPACT, NON_FINITE, OK, RELEASE, STICK, STUCK_FOREVER
+
+
+@njit(cache=True, inline="always")
+def set_identity(M):
+    """Set the 4x4 array ``M`` to the identity (in place)."""
+    for i in range(4):
+        for j in range(4):
+            M[i, j] = 1.0 if i == j else 0.0
+
+
+@njit(cache=True, inline="always")
+def left_multiply(L, M, T):
+    """``M <- L M`` for 4x4 arrays, with ``T`` a 4x4 scratch array."""
+    for i in range(4):
+        for j in range(4):
+            acc = 0.0
+            for k in range(4):
+                acc += L[i, k] * M[k, j]
+            T[i, j] = acc
+    for i in range(4):
+        for j in range(4):
+            M[i, j] = T[i, j]
+
+
+@njit(cache=True, inline="always")
+def section_to_flow(phase, xi, vx, vyrel, kp, M):
+    """Write E (section coordinates -> fixed-time flow tangent, module docstring) into ``M``."""
+    w = kp.w
+    S = arc_root(xi, kp)
+    slope = -xi / S
+    acc = kp.A * w * w * math.sin(phase) + kp.g
+    for i in range(4):
+        for j in range(4):
+            M[i, j] = 0.0
+    M[0, 0] = -vx / w
+    M[0, 1] = 1.0
+    M[1, 0] = -vyrel / w
+    M[1, 1] = slope
+    M[2, 2] = 1.0
+    M[3, 0] = acc / w
+    M[3, 3] = 1.0
+
+
+@njit(cache=True, inline="always")
+def flow_to_section(phase, xi, vx, vyrel, kp, M):
+    """Write C (fixed-time flow tangent just after an event -> section coordinates) into ``M``."""
+    w = kp.w
+    S = arc_root(xi, kp)
+    slope = -xi / S
+    hdot = vyrel - slope * vx  # R V_n / S > 0 after an impact
+    acc = kp.A * w * w * math.sin(phase) + kp.g
+    set_identity(M)
+    # dt = -(dy - slope dx) / hdot
+    M[0, 0] = w * slope / hdot
+    M[0, 1] = -w / hdot
+    M[1, 0] = 1.0 + vx * slope / hdot
+    M[1, 1] = -vx / hdot
+    M[3, 0] = -acc * slope / hdot
+    M[3, 1] = acc / hdot
+
+
+@njit(cache=True, inline="always")
+def flight_flow(tau, M):
+    """``M <- Phi(tau) M``: a free flight of ``tau`` s (rows x += tau vx, y += tau vy)."""
+    for j in range(4):
+        M[0, j] += tau * M[2, j]
+        M[1, j] += tau * M[3, j]
+
+
+@njit(cache=True, inline="always")
+def saltation(phase, xi, vx, vyrel, kp, M):
+    """Write the saltation matrix of an impact at ``xi`` into ``M`` (module docstring).
+
+    ``vx, vyrel`` are the velocity relative to the floor just before the impact
+    (mm/s) and ``phase`` its time (rad).  Returns the relative velocity after it
+    (``floor.bounce``) and ``V_n, V_t`` after it, as ``(vx+, vyrel+, vn+, vt+)``.
+    """
+    R, alpha, beta, g, w = kp.R, kp.alpha, kp.beta, kp.g, kp.w
+    S = arc_root(xi, kp)
+    nx, ny = xi / R, S / R
+    tx, ty = S / R, -xi / R
+    b00 = -alpha * nx * nx + beta * tx * tx
+    b01 = -alpha * nx * ny + beta * tx * ty
+    b11 = -alpha * ny * ny + beta * ty * ty
+    wn = nx * vx + ny * vyrel
+    wt = tx * vx + ty * vyrel
+    c = -(alpha + beta) / S
+    p0 = c * (tx * wn + nx * wt)
+    p1 = c * (ty * wn + ny * wt)
+    a = kp.A * w * w * math.sin(phase)
+    vxp, vyp, vnp, vtp = bounce(xi, vx, vyrel, kp)
+    slope = -xi / S
+    hdot_minus = vyrel - slope * vx
+    # a_vec = f+ - Dg f- - g_t
+    a0 = vxp - vx
+    a1 = vyp - vyrel  # (vyp + u) - (vyrel + u)
+    a2 = -(p0 * vx - b01 * g) + b01 * a
+    a3 = -g - (p1 * vx - b11 * g) - (1.0 - b11) * a
+    set_identity(M)
+    M[2, 0] = p0
+    M[3, 0] = p1
+    M[2, 2] = b00
+    M[2, 3] = b01
+    M[3, 2] = b01
+    M[3, 3] = b11
+    grad0 = -slope / hdot_minus
+    grad1 = 1.0 / hdot_minus
+    av = (a0, a1, a2, a3)
+    for i in range(4):
+        M[i, 0] += av[i] * grad0
+        M[i, 1] += av[i] * grad1
+    return vxp, vyp, vnp, vtp
+
+
+@njit(cache=True, inline="always")
+def chatter_stick_rows(phase, xi, vx, vyrel, kp, M):
+    """Write K (section coordinates just after the last impact -> stick point) into ``M``.
+
+    Rows ``theta_s`` and ``x_s`` of the closed-form chattering sum (module docstring);
+    the velocity rows are zero.  ``vx, vyrel`` are the relative velocity after the impact.
+    The caller checks that the stick point is not clamped at a wedge (a collapse).
+    """
+    R, alpha, beta, w = kp.R, kp.alpha, kp.beta, kp.w
+    for i in range(4):
+        for j in range(4):
+            M[i, j] = 0.0
+    S = arc_root(xi, kp)
+    vn = (vx * xi + vyrel * S) / R
+    vt = (vx * S - vyrel * xi) / R
+    aw2 = kp.A * w * w
+    g_eff = kp.g + aw2 * math.sin(phase)
+    g_n = (g_eff * S - vt * vt) / R
+    tau0 = 2.0 * vn / g_n
+    g_t = g_eff * xi / R
+    ab = alpha * beta
+    one_a2 = 1.0 - alpha * alpha
+    c1 = 1.0 / (1.0 - ab)
+    c2 = ab / (one_a2 * (1.0 - ab)) + 0.5 / one_a2
+    ds = vt * tau0 * c1 + g_t * tau0 * tau0 * c2
+    cr, sr = math.cos(ds / R), math.sin(ds / R)
+    for j in range(4):
+        # one input direction of (theta, x, vx, vyrel): forward-mode derivatives
+        d_th = 1.0 if j == 0 else 0.0
+        d_xi = 1.0 if j == 1 else 0.0
+        d_vx = 1.0 if j == 2 else 0.0
+        d_vy = 1.0 if j == 3 else 0.0
+        d_S = -xi / S * d_xi
+        d_vn = (d_vx * xi + vx * d_xi + d_vy * S + vyrel * d_S) / R
+        d_vt = (d_vx * S + vx * d_S - d_vy * xi - vyrel * d_xi) / R
+        d_geff = aw2 * math.cos(phase) * d_th
+        d_gn = (d_geff * S + g_eff * d_S - 2.0 * vt * d_vt) / R
+        d_tau0 = 2.0 * d_vn / g_n - tau0 * d_gn / g_n
+        d_gt = (d_geff * xi + g_eff * d_xi) / R
+        d_ds = c1 * (d_vt * tau0 + vt * d_tau0) + c2 * (
+            d_gt * tau0 * tau0 + 2.0 * g_t * tau0 * d_tau0
+        )
+        M[0, j] = d_th + w * d_tau0 / (1.0 - alpha)
+        M[1, j] = d_xi * cr + d_S * sr + (S * cr - xi * sr) * d_ds / R
+
+
+@njit(cache=True)
+def billiard_tangent_event(periods, phase, tile, xi, vx, vyrel, kind, kp, J, W, T):
+    """Advance the billiard by one event and write the event map's Jacobian into ``J``.
+
+    Parameters
+    ----------
+    periods, phase, tile, xi, vx, vyrel, kind
+        Current event state (``core.billiard.billiard_event``).
+    kp : KernelParams
+    J : ndarray (4, 4)
+        Out: ``d q_{n+1} / d q_n`` in section coordinates ``(theta, x, vx, vyrel)``
+        (module docstring); all zero for a collapse (a stick at a wedge).
+    W, T : ndarray (4, 4)
+        Scratch.
+
+    Returns
+    -------
+    (periods, phase, tile, xi, vx, vyrel, kind, status)
+        The next event, bitwise that of ``billiard_event``.
+    """
+    if kind == STICK:
+        periods_r, phase_r, status = stick_release(periods, phase, kp.gamma)
+        for i in range(4):
+            for j in range(4):
+                J[i, j] = 0.0
+        if status != OK:
+            return periods, phase, tile, xi, 0.0, 0.0, STICK, status
+        J[1, 1] = 1.0
+        if periods_r == periods and phase_r == phase:  # released at once: its time is the stick's
+            J[0, 0] = 1.0
+        return periods_r, phase_r, tile, xi, 0.0, 0.0, RELEASE, OK
+
+    tau, k, xi_c, vyrel_minus, _, status = billiard_flight(phase, xi, vx, vyrel, kp)
+    if status != OK:
+        return periods, phase, tile, xi, vx, vyrel, kind, status
+    section_to_flow(phase, xi, vx, vyrel, kp, J)
+    flight_flow(tau, J)
+    periods_c, phase_c = advance_phase(periods, phase, kp.w * tau)
+    out = collide(periods_c, phase_c, tile + k, xi_c, vx, vyrel_minus, kp)
+    if out[7] != OK:
+        return out
+    # the chain of reflections of collide: the first on the arc under the particle ...
+    tile_r = tile + k
+    xi_r = snap_to_wedge(xi_c, kp)
+    vx_r, vy_r = vx, vyrel_minus
+    vx_r, vy_r, vn_r, vt_r = saltation(phase_c, xi_r, vx_r, vy_r, kp, W)
+    left_multiply(W, J, T)
+    # ... then one on the neighbour each time wedge_reflect would reflect again
+    for _ in range(64):
+        t2, x2, vx2, vy2, _, _, _ = wedge_reflect(tile_r, xi_r, vx_r, vy_r, vn_r, vt_r, kp)
+        if t2 == tile_r and x2 == xi_r and vx2 == vx_r and vy2 == vy_r:
+            break
+        tile_r = tile_r + (1.0 if xi_r > 0.0 else -1.0)
+        xi_r = -xi_r
+        vx_r, vy_r, vn_r, vt_r = saltation(phase_c, xi_r, vx_r, vy_r, kp, W)
+        left_multiply(W, J, T)
+    if out[6] == IMPACT:
+        flow_to_section(phase_c, xi_r, vx_r, vy_r, kp, W)
+        left_multiply(W, J, T)
+        return out
+    # STICK: a chattering sum ending on the arc keeps the stick point; anything else collapses
+    half = 0.5 * kp.d
+    if abs(out[3]) < half and vn_r > 0.0:
+        flow_to_section(phase_c, xi_r, vx_r, vy_r, kp, W)
+        left_multiply(W, J, T)
+        chatter_stick_rows(phase_c, xi_r, vx_r, vy_r, kp, W)
+        left_multiply(W, J, T)
+        return out
+    for i in range(4):
+        for j in range(4):
+            J[i, j] = 0.0
+    return out
+
+
+@njit(cache=True, inline="always")
+def lifted_phase(periods, phase):
+    """Lifted phase ``w t = 2 pi periods + phase`` (rad)."""
+    return TWO_PI * periods + phase
+
+
+@njit(cache=True, error_model="numpy")
+def billiard_tangent_run(
+    periods, phase, tile, xi, vx, vyrel, kind, kp, t_ends, vec,
+    out_log, out_collisions, out_collapses, out_time,
+):  # fmt: skip
+    """Advance one particle through events with one tangent vector, window by window.
+
+    Parameters
+    ----------
+    periods, phase, tile, xi, vx, vyrel, kind
+        Current event state.
+    kp : KernelParams
+    t_ends : ndarray (n_windows,)
+        Ends of the windows in driving periods, increasing (as ``core.tangent.flat_tangent_run``).
+    vec : ndarray (4,)
+        Unit tangent vector in section coordinates (in/out).
+    out_log : ndarray (n_windows,)
+        Sum of ``log |J v| / |v|`` over the events of each window (added to).
+    out_collisions, out_collapses : ndarray (n_windows,) int64
+        Collisions (IMPACT and STICK events) and collapses (sticks at a wedge, where
+        ``J v = 0``; the vector restarts along the floor, ``(0, 1, 0, 0)``), added to.
+    out_time : ndarray (n_windows,)
+        Time (driving periods) of the last event of each window (overwritten).
+
+    Returns
+    -------
+    (periods, phase, tile, xi, vx, vyrel, kind, status)
+        The last event; ``status`` ``OK``, ``STUCK_FOREVER`` (Gamma <= 1; the window it
+        sticks in ends at its end: it rests there), ``NON_FINITE`` (a non-finite tangent
+        vector: a grazing contact, whose event map has no derivative) or a failure of
+        the event kernel.
+    """
+    J = np.empty((4, 4))
+    W = np.empty((4, 4))
+    T = np.empty((4, 4))
+    n_w = t_ends.shape[0]
+    j = 0
+    t = periods + phase / TWO_PI
+    while j < n_w and t > t_ends[j]:
+        j += 1
+    status = OK
+    while j < n_w:
+        collision = kind != STICK
+        periods, phase, tile, xi, vx, vyrel, kind, status = billiard_tangent_event(
+            periods, phase, tile, xi, vx, vyrel, kind, kp, J, W, T
+        )
+        if status == STUCK_FOREVER:
+            out_time[j] = max(t, t_ends[j])  # it rests on the floor to the window's end
+            break
+        if status != OK:
+            break
+        t = periods + phase / TWO_PI
+        while j < n_w - 1 and t > t_ends[j]:
+            j += 1
+        n0 = J[0, 0] * vec[0] + J[0, 1] * vec[1] + J[0, 2] * vec[2] + J[0, 3] * vec[3]
+        n1 = J[1, 0] * vec[0] + J[1, 1] * vec[1] + J[1, 2] * vec[2] + J[1, 3] * vec[3]
+        n2 = J[2, 0] * vec[0] + J[2, 1] * vec[1] + J[2, 2] * vec[2] + J[2, 3] * vec[3]
+        n3 = J[3, 0] * vec[0] + J[3, 1] * vec[1] + J[3, 2] * vec[2] + J[3, 3] * vec[3]
+        r = math.sqrt(n0 * n0 + n1 * n1 + n2 * n2 + n3 * n3)
+        if not math.isfinite(r):  # a grazing contact (V_n = 0): no derivative
+            status = NON_FINITE
+            break
+        if collision:
+            out_collisions[j] += 1
+        if r > 0.0:
+            vec[0], vec[1], vec[2], vec[3] = n0 / r, n1 / r, n2 / r, n3 / r
+            out_log[j] += math.log(r)
+        else:
+            out_collapses[j] += 1
+            vec[0], vec[1], vec[2], vec[3] = 0.0, 1.0, 0.0, 0.0
+        out_time[j] = t
+        if t > t_ends[j]:
+            j += 1
+    return periods, phase, tile, xi, vx, vyrel, kind, status
