@@ -72,7 +72,10 @@ html_theme_options = {
     "show_toc_level": 2,
     "secondary_sidebar_items": ["page-toc"],
 }
-html_sidebars = {"gallery": [], "index": []}
+# Pages without sub-pages get no (empty) section navigation on the left.
+html_sidebars = {
+    page: [] for page in ("index", "getting_started", "model", "gallery", "results", "paper")
+}
 
 
 def skip_reexports(app, what, name, obj, skip, options):
