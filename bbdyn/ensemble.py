@@ -82,7 +82,8 @@ class Box:
 
 
 def reference_box(params: Params) -> Box:
-    """The reference box of docs/model.md: 0 <= s <= s_max, |vx+| <= 40, 0 < vy+ <= 40 (mm/s)."""
+    """The reference box of docs/model.md: ``0 <= s <= s_max``, ``|vx+| <= 40``,
+    ``0 < vy+ <= 40`` (mm/s)."""
     return Box(s=(0.0, params.s_max), vx=(-40.0, 40.0), vy=(0.0, 40.0))
 
 

@@ -20,7 +20,7 @@ class KernelParams(NamedTuple):
 
     ``A, w, g, alpha, beta, R, d`` as in docs/model.md; the rest are derived once
     here so that kernels never recompute them: ``gamma = A w^2 / g``,
-    ``curv_bound = g + A w^2`` (a bound on |d^2 gap / dt^2| of the flat ball),
+    ``curv_bound = g + A w^2`` (a bound on ``|d^2 gap / dt^2|`` of the flat ball),
     ``c0 = sqrt(R^2 - d^2/4)`` (depth of the arc centres below the wedges) and
     ``period = 2 pi / w``.
     """

@@ -171,7 +171,7 @@ def tangent_departure(sn, xi0, S0, vx, tc, kp):
 
     With ``G''(0) = -g - A w^2 sin(theta) + R^2 vx^2 / S0^3 > 0`` (the convex arc
     falls away faster than the particle), ``G(tau) >= G''(0) tau^2/2 - J tau^3/6``
-    with ``J = A w^3 + 3 R^2 |xi|_max |vx|^3 / S_min^5`` bounding |G'''| on the tile
+    with ``J = A w^3 + 3 R^2 |xi|_max |vx|^3 / S_min^5`` bounding ``|G'''|`` on the tile
     segment; the returned ``tau <= tc`` has ``J tau < DEPARTURE_MARGIN G''(0)`` (1.5), hence
     ``G > 0`` for 0 < t <= tau.  Returns 0 if ``G''(0) <= 0`` (it cannot leave).
     """
@@ -524,11 +524,12 @@ def billiard_event_rule(periods, phase, tile, xi, vx, vyrel, kind, kp, cubic):
 
     Returns
     -------
-    (periods, phase, tile, xi, vx, vyrel, kind, status) of the next event.
-    A stuck particle is released with the floor's velocity at ``theta_r = pi +
-    asin(1/Gamma)``, or at once if it stuck inside the release window (a wedge
-    collapse while the floor falls faster than g; ``stick_release``); for
-    Gamma <= 1 the state is returned unchanged with ``STUCK_FOREVER``.
+    tuple
+        ``(periods, phase, tile, xi, vx, vyrel, kind, status)`` of the next event.
+        A stuck particle is released with the floor's velocity at ``theta_r = pi +
+        asin(1/Gamma)``, or at once if it stuck inside the release window (a wedge
+        collapse while the floor falls faster than g; ``stick_release``); for
+        Gamma <= 1 the state is returned unchanged with ``STUCK_FOREVER``.
 
     Examples
     --------

@@ -28,7 +28,7 @@ exactly tangential (grazing) contact it converges linearly.  The search stops
 when the upper Taylor bound ``G + G' s - m s^2 / 2 + K s^3 / 6`` is already
 negative ``ROOT_STEP_REL`` times the flight time after the next safe step (the
 contact is then bracketed to that width, and G' there follows from its Taylor
-series to below eps |G'|, so that last evaluation is skipped), when the safe step
+series to below eps ``|G'|``, so that last evaluation is skipped), when the safe step
 is below ``ROOT_STEP_REL`` times the flight time, or when rounding makes ``G <= 0``.
 All bounds hold up to the rounding of G, G', G'' (a few ulp of their terms).
 Kernels use ``error_model="numpy"``: they never raise; a division by zero gives

@@ -48,7 +48,7 @@ _KC6 = -1.13596475577881948265e-11
 def sin_cos(y):
     """``(sin y, cos y)`` to about one ulp, inlined (a libm sincos call costs ~3x more).
 
-    Cody-Waite reduction by pi/2 and the fdlibm kernels; |y| above 2^19 pi/2
+    Cody-Waite reduction by pi/2 and the fdlibm kernels; ``|y|`` above 2^19 pi/2
     (a flight of ~1e6 rad) falls back to ``math.sin`` and ``math.cos``.
     """
     if not abs(y) < _SINCOS_MAX:
@@ -88,7 +88,7 @@ _S19 = -1.0 / 121645100408832000.0
 
 @njit(cache=True, inline="always", error_model="numpy")
 def sin_minus_x(x):
-    """``sin(x) - x`` without cancellation for small |x| (Taylor series below 0.5)."""
+    """``sin(x) - x`` without cancellation for small ``|x|`` (Taylor series below 0.5)."""
     if abs(x) >= 0.5:
         return math.sin(x) - x
     x2 = x * x

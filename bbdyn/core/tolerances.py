@@ -65,12 +65,12 @@ WEDGE_TOL = 4.0 * EPS
 WEDGE_MAX_REFLECTIONS = 16
 
 #: Gap of the billiard checked by the tests: never below -GAP_REL_TOL times the
-#: scale of the terms of the gap (|vyrel| tau + g tau^2 + A + h), a few ulp each.
+#: scale of the terms of the gap (``|vyrel| tau + g tau^2 + A + h``), a few ulp each.
 GAP_REL_TOL = 64.0 * EPS
 
 #: Relative rounding allowance of a gap evaluated from stored events: the gap at
 #: a recorded impact is zero to IMPACT_GAP_REL times the sum of the magnitudes
-#: of its terms (|v tau|, g tau^2 / 2, 2 A, |G'| / f for the phase rounding).
+#: of its terms (``|v tau|``, ``g tau^2 / 2``, ``2 A``, ``|G'| / f`` for the phase rounding).
 IMPACT_GAP_REL = 64.0 * EPS
 
 # ---- random walk and Green-Kubo (bbdyn.approx) ---------------------------------------
@@ -94,7 +94,7 @@ DEPARTURE_REL_TOL = 8.0 * EPS
 
 #: A dot product of m terms is exact to m * DOT_ROUND_PER_TERM times the dot product of
 #: the absolute values (Higham's gamma_m = m u / (1 - m u) with u = EPS / 2, doubled for
-#: the rounding of the weights, taken relative to |t| + |tbar|, the size of the numbers
+#: the rounding of the weights, taken relative to ``|t| + |tbar|``, the size of the numbers
 #: rounded in t - tbar).  Differences of MSD slopes below this are rounding.
 DOT_ROUND_PER_TERM = EPS
 

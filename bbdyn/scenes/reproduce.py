@@ -90,7 +90,7 @@ def cost_lines(ids: Iterable[str], setting: str, root: str | Path = SOURCE_ROOT)
         same = measured.get((scene_id, json.dumps(settings, sort_keys=True)))
         if same is not None:
             line += (f"; measured {rough_duration(float(same['run'].split()[0]))} wall for "
-                     f"docs/figures/{same['name']} (commit {_commit_text(same)})")  # fmt: skip
+                     f"docs/figures/{same['name']} (commit {commit_text(same)})")  # fmt: skip
         lines.append(line)
     return lines
 
@@ -204,7 +204,7 @@ def figure_records(folder: str | Path) -> list[dict]:
     return sorted(records, key=lambda r: (order.index(r["scene"]), r["name"]))
 
 
-def _commit_text(record: dict) -> str:
+def commit_text(record: dict) -> str:
     if record["commit"] is None:
         return "not a git checkout"
     return record["commit"][:7] + (" (tree had uncommitted changes)" if record["dirty"] else "")
@@ -270,7 +270,7 @@ def write_index(folder: str | Path) -> Path:
             "",
             f"* data: `{r['name']}.npz`, `{r['name']}.json`",
             f"* setting: {r['setting']} ({settings_text(r['settings'])}), seed {r['seed']}",
-            f"* run time: {r['run']}; commit: {_commit_text(r)}",
+            f"* run time: {r['run']}; commit: {commit_text(r)}",
         ]
         lines += [f"* {key}: {value}" for key, value in r["key_numbers"].items()]
         lines.append("")
@@ -297,7 +297,7 @@ def docs_table(folder: str | Path) -> str:
         rows.append(
             f"| [`{r['name']}.png`](figures/{r['name']}.png) | {scene_module(r['scene']).TITLE} "
             f"| {r['setting']}: {settings_text(r['settings'])} (seed {r['seed']}) | {made} "
-            f"| {r['run']} | {_commit_text(r)} |"
+            f"| {r['run']} | {commit_text(r)} |"
         )
     return "\n".join(rows)
 
