@@ -10,9 +10,10 @@ from __future__ import annotations
 
 from pathlib import Path
 
+from bbdyn.scenes import SCENES, scene_module
+
 # The bbdyn names the gallery uses (update here when modules move).
 from bbdyn.scenes.reproduce import commit_text, docs_command, figure_records, settings_text
-from bbdyn.scenes import SCENES, scene_module
 
 #: line of gallery.md replaced by the generated sections
 MARKER = "<!-- gallery: filled at build time from docs/figures/*.json (docs/_ext/gallery.py) -->"
