@@ -179,3 +179,34 @@ def test_b3_standard_errors_carry_their_sampling_error():
     np.testing.assert_allclose(halves[0], [4.0 / np.sqrt(8), 2.0 / np.sqrt(32)])
     np.testing.assert_allclose(halves[1], [3.0 / 4, 3.0 / 4])
     assert "t = 1 s" in ax.get_title() and "n = 9" in ax.get_title()
+
+
+def test_b2_points_are_numbered_and_named_in_words():
+    import math
+
+    from bbdyn.core.tolerances import EPS, ROOT_STEP_REL
+    from bbdyn.scenes.b2_flat import FlatBenchResult
+
+    errors = {"max_time_error_s": 1e-12, "max_velocity_error": 0.0}
+    rows = [
+        {"method": "exact", "setting": "default", "step_rel": ROOT_STEP_REL,
+         "impacts_per_s": 1e6, **errors},
+        {"method": "exact", "setting": "continuous run", "impacts_per_s": 2e6, **errors},
+        {"method": "fixed_step", "setting": "dt", "dt": 1e-4, "dt_min": 1e-6,
+         "impacts_per_s": 1e5, **errors},
+        {"method": "solve_ivp", "setting": "ivp", "ivp_method": "RK45", "frame": "lab",
+         "rtol": 1e-6, "max_step_periods": 0.05, "impacts_per_s": 1e3, **errors},
+        {"method": "solve_ivp", "setting": "ivp", "ivp_method": "DOP853", "frame": "plate",
+         "rtol": 1e-10, "max_step_periods": math.inf, "impacts_per_s": 1e3, **errors},
+    ]  # fmt: skip
+    meta = {"rows": rows, "case": {"f": 82.0, "alpha": 0.8}, "settings": {"n_impacts": 40}}
+    fig = scene_module("B2-FLAT").draw(FlatBenchResult({}, meta))
+    key = fig.texts[-1].get_text().splitlines()
+    assert key == [
+        f"1: exact, default root tolerance ({ROOT_STEP_REL / EPS:g} eps of the flight time)",
+        "2: fixed step 0.0001 s, refined to 1e-06 s",
+        "3: solve_ivp RK45, lab frame, rtol 1e-06, max step 0.05 periods",
+        "4: solve_ivp DOP853, plate frame, rtol 1e-10",
+    ]  # the continuous run is not a one-step point: not drawn, not named
+    for ax in fig.axes:
+        assert sorted(t.get_text() for t in ax.texts) == ["1", "2", "3", "4"]
