@@ -123,11 +123,12 @@ def s9_result():
     from bbdyn.scenes.s9_random_walk import SceneS9Result
 
     arrays = {"f": F, "gamma": np.full(F.size, 2.5)}
-    for key, values in (("D", [0.0, 0.1, 2.0, 50.0, -1e-3]), ("D_rw", [0.5, 0.0, 1.0, 4.0, 4.0]),
+    for key, values in (("D", [0.0, 0.1, 2.0, 50.0, -1e-3]), ("D_rw", [0.5, 0.02, 1.0, 4.0, 4.0]),
                         ("D_a", [np.nan, 1.0, 1.5, 5.0, 6.0]), ("r", [10.0] * 5),
                         ("tau", [1.0] * 5)):  # fmt: skip
         arrays[key] = np.array(values)
         arrays[key + "_err"] = np.abs(arrays[key]) / 10
+    arrays["D_rw_err"][1] = 0.05  # D_rw = 0.02 +- 0.05: zero within its error
     meta = {"f_gamma2": 50.5, "scan_manifest": {"compute": {"kwargs": {"n": 7, "t": 3.0}}}}
     return SceneS9Result(arrays, meta)
 
@@ -137,7 +138,7 @@ def test_s9_d_axis_is_log_and_marks_values_it_cannot_show():
     ax = fig.axes[0]
     assert ax.get_yscale() == "log"
     assert "n = 7 particles, t = 3 s" in ax.get_title() and "f = 50-54 Hz" in ax.get_title()
-    # D <= 0 at 50 and 54 Hz, D_rw = 0 at 51 Hz: open triangles on the bottom edge
+    # D <= 0 at 50 and 54 Hz, D_rw within 2 errors of 0 at 51 Hz: triangles on the bottom edge
     edge = [ln for ln in ax.lines if ln.get_marker() == "v" and ln.get_xdata().size]
     assert sorted(x for ln in edge for x in ln.get_xdata()) == [50.0, 51.0, 54.0]
     # 0.1 and 2 mm^2/s are inside the visible range next to D_rw and D_a

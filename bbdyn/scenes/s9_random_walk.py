@@ -95,8 +95,8 @@ def _median_ratio(num: np.ndarray, den: np.ndarray, mask: np.ndarray) -> str:
 
 def draw(result: Result, ax=None):
     """D, D_rw, D_a against f on a log axis (top) and the measured r (bottom); returns the
-    Figure.  Values that are not positive (no escape seen), which a log axis cannot show,
-    are marked on its bottom edge."""
+    Figure.  Values within two standard errors of zero or below (no escape seen, or too few
+    to tell), which a log axis cannot show, are marked on its bottom edge."""
     import matplotlib.pyplot as plt
 
     if ax is None:
@@ -115,9 +115,10 @@ def draw(result: Result, ax=None):
     series = (("D", "o", "Einstein $D$"), ("D_rw", "s-", r"$D_{rw} = d^2 / 2\tau$"),
               ("D_a", "^-", "$D_a$ (measured $r$)"))  # fmt: skip
     for i, (key, fmt, label) in enumerate(series):
-        _log_series(ax, f, result[key], result[key + "_err"], fmt, f"C{i}", label)
-    if np.any(~(result["D"] > 0) | ~(result["D_rw"] > 0)):
-        ax.plot([], [], "v", color="0.4", mfc="none", label=r"$\leq 0$: on the bottom edge")
+        _log_series(ax, f, result[key], result[key + "_err"], fmt, f"C{i}", label, row=i)
+    if any(_near_zero(result[k], result[k + "_err"]).any() for k, _, _ in series):
+        ax.plot([], [], "v", color="0.4", mfc="none", label="within 2 standard errors of 0\n"
+                "or below: along the bottom edge")  # fmt: skip
     ax.set_ylabel("$D$ (mm$^2$/s, log scale)")
     ax.set_title(_title(result))
     ax.legend(fontsize=8, loc="upper left", bbox_to_anchor=(1.01, 1.0), frameon=False)
@@ -140,12 +141,18 @@ def _title(result: Result) -> str:
             "bars: 1 standard error")  # fmt: skip
 
 
-def _log_series(ax, f, y, err, fmt: str, color: str, label: str) -> None:
-    """``y`` (mm^2/s) with error bars on a log axis; values <= 0 (NaN kept as gaps) as open
-    triangles on the bottom edge."""
-    low = y <= 0
+def _near_zero(y: np.ndarray, err: np.ndarray) -> np.ndarray:
+    """Finite values ``y`` not above two standard errors ``err``: zero within the noise."""
+    return np.isfinite(y) & ~(y > 2 * err)
+
+
+def _log_series(ax, f, y, err, fmt: str, color: str, label: str, row: int = 0) -> None:
+    """``y`` (mm^2/s) with error bars on a log axis; values within two standard errors of
+    zero or below as open triangles along the bottom edge, series ``row`` a little higher
+    than series ``row - 1`` so that they do not hide each other (NaN stays a gap)."""
+    low = _near_zero(y, err)
     ax.errorbar(f, np.where(low, np.nan, y), err, fmt=fmt, ms=3, lw=0.8, capsize=2,
                 color=color, label=label)  # fmt: skip
     if low.any():
-        ax.plot(f[low], np.zeros(low.sum()), "v", color=color, mfc="none", ms=5, clip_on=False,
-                transform=ax.get_xaxis_transform())  # fmt: skip
+        ax.plot(f[low], np.full(low.sum(), 0.025 * row), "v", color=color, mfc="none", ms=5,
+                clip_on=False, transform=ax.get_xaxis_transform())  # fmt: skip
