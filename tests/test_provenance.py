@@ -88,9 +88,26 @@ def test_saved_scene_records_provenance_in_json_and_png(tmp_path):
     assert 0 < saved["run_s"] <= elapsed
     # the shared checkout may change during the run: the state at its start or end
     assert {k: saved[k] for k in state_before} in (state_before, source_state(SOURCE_ROOT))
-    # a redraw from the data carries the data's provenance, not a new one
+    # a redraw from the data carries the data's provenance, not a new one, and who drew it
     png.unlink()
-    assert read_png_provenance(redraw_scene(tmp_path / "fig.json")) == saved
+    redrawn = read_png_provenance(redraw_scene(tmp_path / "fig.json"))
+    drawn_by = redrawn.pop("drawn_by")
+    assert redrawn == saved
+    assert drawn_by in (state_before, source_state(SOURCE_ROOT))
+
+
+def test_redraw_records_the_code_that_drew_it(repo, tmp_path, monkeypatch):
+    """A redraw names the commit and dirty state of the source tree at drawing time."""
+    import bbdyn.scenes as scenes
+
+    run_scene("S2", setting="quick", out_dir=tmp_path, seed=3, name="fig")
+    monkeypatch.setattr(scenes.source_state, "__defaults__", (repo,))
+    clean = read_png_provenance(redraw_scene(tmp_path / "fig.json"))["drawn_by"]
+    assert clean == {"commit": git(repo, "rev-parse", "HEAD"), "dirty": False, "dirty_files": []}
+    (repo / "bbdyn" / "a.py").write_text("x = 2\n")
+    dirty = read_png_provenance(redraw_scene(tmp_path / "fig.json"))["drawn_by"]
+    assert dirty["commit"] == clean["commit"] and dirty["dirty"] is True
+    assert dirty["dirty_files"] == [" M bbdyn/a.py"]
 
 
 def test_png_without_provenance_is_refused(tmp_path):
@@ -211,9 +228,13 @@ def test_docs_figures_record_where_they_came_from():
     for name, r in records.items():
         if r["pre"] is None:
             saved = json.loads((figures / f"{name}.json").read_text())["meta"]["provenance"]
-            assert read_png_provenance(figures / f"{name}.png") == saved
-            assert r["dirty"] is False, name
-            git(SOURCE_ROOT, "merge-base", "--is-ancestor", r["commit"], "HEAD")
+            in_png = read_png_provenance(figures / f"{name}.png")
+            # a figure redrawn from its data names the code that drew it: clean, in history
+            drawn_by = in_png.pop("drawn_by", {"commit": r["commit"], "dirty": False})
+            assert in_png == saved
+            for state in (r, drawn_by):
+                assert state["dirty"] is False, name
+                git(SOURCE_ROOT, "merge-base", "--is-ancestor", state["commit"], "HEAD")
         else:
             added = git(SOURCE_ROOT, "log", "--diff-filter=A", "--format=%H", "--",
                         f"docs/figures/{name}.png")  # fmt: skip

@@ -19,7 +19,8 @@ Each scene module defines
 figure (``<name>.png``) side by side, so a figure can be redrawn from its data with
 ``redraw_scene``.  Both record the provenance (``provenance``: bbdyn version, git commit
 and dirty files of the source tree, scene, setting and its values, seed, run time) in
-the JSON (``meta["provenance"]``) and in the PNG's text metadata (``read_png_provenance``).
+the JSON (``meta["provenance"]``) and in the PNG's text metadata (``read_png_provenance``);
+a redrawn PNG adds the state of the code that drew it (``"drawn_by"``).
 """
 
 from __future__ import annotations
@@ -220,7 +221,8 @@ def redraw_scene(json_path: str | Path) -> Path:
     """Redraw a saved scene from its numbers, without recomputing; returns the PNG path.
 
     The PNG records the provenance saved with the numbers (data saved before provenance
-    was recorded give ``{"provenance": None}``)."""
+    was recorded give ``{"provenance": None}``) and, under ``"drawn_by"``, the
+    ``source_state`` of the code that drew it."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -232,6 +234,5 @@ def redraw_scene(json_path: str | Path) -> Path:
         meta = json.load(fh)["meta"]
     module = scene_module(meta["scene"])  # registers the scene's result class before loading
     fig = module.draw(load_result(json_path))
-    return save_figure(
-        fig, json_path.with_suffix(".png"), meta.get("provenance", {"provenance": None})
-    )
+    data = meta.get("provenance", {"provenance": None})
+    return save_figure(fig, json_path.with_suffix(".png"), data | {"drawn_by": source_state()})

@@ -98,36 +98,84 @@ def compute(settings: dict, seed: int = 0, out_dir=None, progress=False) -> Scen
 
 
 def draw(result: Result, ax=None):
-    """Regime bands, number of attractors and stacked basin fractions; returns the Figure."""
+    """Regime strip, number of attractors and stacked basin fractions against f (Hz), the
+    title naming the f-range, n and t; returns the Figure.  With ``ax`` given, only the
+    basin fractions are drawn there."""
     import matplotlib.pyplot as plt
 
-    if ax is None:
-        fig, axes = plt.subplots(2, 1, figsize=(8, 5.5), sharex=True)
-    else:
-        fig, axes = ax.figure, [ax, ax.twinx()]
-    f = result["f"]
-    order = np.argsort(f)
-    f, reg = f[order], result["regime"][order].astype(int)
-    step = np.median(np.diff(f)) if f.size > 1 else 1.0
-    colors = plt.get_cmap("tab10")
-    for i, lab in enumerate(LABELS):
-        sel = reg == i
-        if sel.any():
-            axes[0].bar(f[sel], 1.0, width=step, color=colors(i), alpha=0.35, label=lab)
-    axes[0].plot(f, result["n_attractors"][order] / 4, "ko-", ms=3, label="attractors / 4")
-    axes[0].plot(f, result["unsettled_fraction"][order], "rx", ms=4, label="unsettled")
-    axes[0].set(ylim=(0, 1.05), ylabel="regime band")
-    axes[0].legend(ncol=4, fontsize=7, loc="upper right")
-    fr = result["fractions"][order]
-    axes[1].stackplot(f, fr.T, labels=[f"attractor {i}" for i in range(fr.shape[1])], alpha=0.7)
-    axes[1].set(xlabel="f (Hz)", ylabel="basin fraction", ylim=(0, 1))
-    axes[1].legend(fontsize=7, loc="lower right")
+    order = np.argsort(result["f"])
+    f = result["f"][order]
+    if ax is not None:
+        _draw_fractions(ax, result, order)
+        return ax.figure
+    fig, (ax_reg, ax_n, ax_fr) = plt.subplots(
+        3, 1, figsize=(10, 6.5), sharex=True, height_ratios=(0.6, 1, 2), layout="constrained"
+    )
+    draw_regime_strip(ax_reg, result)
+    ax_n.step(f, result["n_attractors"][order], where="mid", color="k", lw=1)
+    ax_n.plot(f, result["n_attractors"][order], "ko", ms=2.5)
+    ax_n.yaxis.set_major_locator(plt.MaxNLocator(integer=True))
+    ax_n.set(ylabel="attractors", ylim=(-0.3, max(1, np.max(result["n_attractors"])) + 0.5))
+    _draw_fractions(ax_fr, result, order)
+    ax_fr.set_xlabel("f (Hz)")
+    ax_reg.set_title(_title(result, f))
     return fig
+
+
+def _title(result: Result, f: np.ndarray) -> str:
+    """The figure title: f-range and count (Hz), ensemble size n and run time t (s)."""
+    s = result.meta.get("settings", {})
+    run = f"n = {s['n']} particles, t = {s['t']:g} s" if {"n", "t"} <= s.keys() else "n, t unknown"
+    return f"Regime map, f = {f[0]:g}-{f[-1]:g} Hz ({f.size} frequencies), {run} per frequency"
+
+
+def draw_regime_strip(ax, result: Result, **legend_kw) -> None:
+    """The regime bands of ``result`` (``regime_bands``) as coloured spans along f (Hz); the
+    legend (placed right of ``ax`` unless ``legend_kw`` says otherwise) names and explains
+    the regimes drawn."""
+    from matplotlib.patches import Patch
+
+    from bbdyn.classify import REGIMES
+
+    colors = _regime_colors()
+    bands = regime_bands(result)
+    for lo, hi, label in bands:
+        ax.axvspan(lo, hi, color=colors[label], lw=0)
+    drawn = [lab for lab in LABELS if any(band[2] == lab for band in bands)]
+    handles = [Patch(color=colors[lab], label=f"{lab}: {REGIMES[lab]}") for lab in drawn]
+    place = {"loc": "upper left", "bbox_to_anchor": (1.01, 1.05)} | legend_kw
+    ax.legend(handles=handles, fontsize=7, frameon=False, title="regime (B1 classifier)",
+              title_fontsize=8, alignment="left", **place)  # fmt: skip
+    ax.set(ylim=(0, 1), yticks=[], ylabel="regime")
+
+
+def _regime_colors() -> dict[str, tuple]:
+    """A fixed colour per regime label (the same in every figure)."""
+    import matplotlib.pyplot as plt
+
+    cmap = plt.get_cmap("tab10")
+    return {lab: cmap([0, 1, 2, 3, 4, 7][i]) for i, lab in enumerate(LABELS)}
+
+
+def _draw_fractions(ax, result: Result, order: np.ndarray) -> None:
+    """Basin fractions stacked from the largest attractor up, the unsettled fraction on top;
+    only series that are non-zero somewhere are drawn and listed."""
+    f = result["f"][order]
+    fr = result["fractions"][order]
+    names = [f"attractor {i + 1}" for i in range(fr.shape[1])]
+    names[-1] = f"attractors {fr.shape[1]}+" if fr.shape[1] == MAX_ATTRACTORS else names[-1]
+    series = [(fr[:, i], name, f"C{i}") for i, name in enumerate(names)]
+    series.append((result["unsettled_fraction"][order], "unsettled", "0.55"))
+    drawn = [s for s in series if np.any(s[0] > 0)]
+    ax.stackplot(f, [s[0] for s in drawn], labels=[s[1] for s in drawn],
+                 colors=[s[2] for s in drawn], alpha=0.8, lw=0)  # fmt: skip
+    ax.set(ylabel="basin fraction", ylim=(0, 1))
+    ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0), frameon=False)
 
 
 def regime_bands(result: Result) -> list[tuple[float, float, str]]:
     """Runs of equal regime label as ``(f_lo, f_hi, label)`` bands (Hz), each band reaching
-    half way to the neighbouring frequencies (for S3's shading)."""
+    half way to the neighbouring frequencies (drawn by ``draw_regime_strip``)."""
     order = np.argsort(result["f"])
     f, codes = result["f"][order], result["regime"][order].astype(int)
     edges = np.concatenate([[f[0]], 0.5 * (f[1:] + f[:-1]), [f[-1]]])

@@ -378,30 +378,42 @@ class BilliardBenchResult(Result):
     kind = "bench_billiard"
 
     def plot(self, ax=None):
-        """Work-precision: max one-step impact-time error vs cost per collision."""
+        """Work-precision: max one-step impact-time error vs cost per collision, each point
+        numbered as in ``point_key``."""
         import matplotlib.pyplot as plt
+
+        from bbdyn.scenes.b2_flat import number_points
 
         if ax is None:
             _, ax = plt.subplots()
         floor = 1e-19
-        for method, marker in (("exact", "o"), ("fixed_step", "s")):
-            rows = [
-                r
-                for r in self.meta["rows"]
-                if r["method"] == method and math.isfinite(r["max_time_error_s"])
-            ]
+        number = 1
+        for method, marker, rows in self.drawn_rows():
             cost = np.array([1e6 / r["collisions_per_s"] for r in rows])
             err = np.array([max(r["max_time_error_s"], floor) for r in rows])
             ax.loglog(cost, err, marker, label=method.replace("_", " "))
-            for c, e, r in zip(cost, err, rows, strict=True):
-                label = f"{r['dt']:g}/{r['dt_min']:g}" if method == "fixed_step" else ""
-                label = label or r["setting"].split(",")[0]
-                ax.annotate(label, (c, e), fontsize=6, xytext=(3, 2), textcoords="offset points")
-        ax.axhline(1e-12, color="0.6", lw=0.8, ls="--")
+            number = number_points(ax, cost, err, number)
+        ax.axhline(1e-12, color="0.6", lw=0.8, ls="--", label="target: 1e-12 s")
         ax.set_xlabel("cost per collision (µs, single core)")
         ax.set_ylabel("max one-step error of impact time (s)")
         ax.legend(fontsize=8)
         return ax
+
+    def drawn_rows(self) -> list[tuple[str, str, list[dict[str, Any]]]]:
+        """``(method, marker, rows)`` of the work-precision panel (rows with a measured
+        error), in the order drawn."""
+        drawn = []
+        for method, marker in (("exact", "o"), ("fixed_step", "s")):
+            rows = [r for r in self.meta["rows"]
+                    if r["method"] == method and math.isfinite(r["max_time_error_s"])]  # fmt: skip
+            drawn.append((method, marker, rows))
+        return drawn
+
+    def point_key(self) -> list[str]:
+        """The points of the panel in words, in the order of their numbers."""
+        from bbdyn.scenes.b2_flat import describe
+
+        return [describe(r) for _, _, rows in self.drawn_rows() for r in rows]
 
 
 def compute(settings: dict[str, Any], *, log=None) -> BilliardBenchResult:
@@ -454,17 +466,21 @@ def draw(result: BilliardBenchResult):
     """Figure: work-precision panel and the per-frequency cost profile."""
     import matplotlib.pyplot as plt
 
+    from bbdyn.scenes.b2_flat import draw_point_key
+
     fig, axes = plt.subplots(1, 2, figsize=(11, 4.5))
     result.plot(axes[0])
     prof = result.meta["profile"]
     f = [r["f"] for r in prof]
     axes[1].plot(f, [r["collisions_per_s"] / 1e6 for r in prof], "o-", label="collisions/s (1e6)")
     axes[1].plot(f, [r["steps_per_flight"] for r in prof], "s-", label="safe steps / flight")
-    axes[1].set_xlabel("f (Hz)")
+    axes[1].set(xlabel="f (Hz)", ylabel="collisions/s (1e6); safe steps per flight (1)")
     axes[1].legend(fontsize=8)
     axes[1].set_title("exact kernel cost, continuous run, 1 thread", fontsize=9)
-    fig.suptitle(f"billiard work-precision (f = {result.meta['case']['f']} Hz, default parameters)")
+    fig.suptitle(f"billiard work-precision (f = {result.meta['case']['f']} Hz, default parameters, "
+                 f"{result['starts'].shape[0]} one-step flights per point)")  # fmt: skip
     fig.tight_layout()
+    draw_point_key(fig, result.point_key())
     return fig
 
 

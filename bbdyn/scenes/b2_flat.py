@@ -381,7 +381,8 @@ class FlatBenchResult(Result):
     kind = "bench_flat"
 
     def plot(self, ax=None, which: str = "time"):
-        """Work-precision: max one-step error (``which`` = time or velocity) vs cost per impact."""
+        """Work-precision: max one-step error (``which`` = time or velocity) vs cost per impact,
+        each point numbered as in ``point_key``."""
         import matplotlib.pyplot as plt
 
         key = {"time": "max_time_error_s", "velocity": "max_velocity_error"}[which]
@@ -389,26 +390,12 @@ class FlatBenchResult(Result):
             _, ax = plt.subplots()
         # A zero error (exact in float64) is drawn at the floor, with an open marker.
         floor = 1e-18 if which == "time" else 1e-15
-        markers = {"exact": "o", "fixed_step": "s", "solve_ivp": "^"}
-        for method, marker in markers.items():
-            rows = [
-                r
-                for r in self.meta["rows"]
-                if r["method"] == method and "continuous" not in r["setting"]
-            ]
-            if not rows:
-                continue
+        number = 1
+        for method, marker, rows in self.drawn_rows():
             cost = np.array([1e6 / r["impacts_per_s"] for r in rows])
             err = np.array([r[key] for r in rows])
             ax.loglog(cost, np.maximum(err, floor), marker, label=method.replace("_", " "))
-            for c, e, r in zip(cost, err, rows, strict=True):
-                ax.annotate(
-                    _short(r),
-                    (c, max(e, floor)),
-                    fontsize=6,
-                    xytext=(3, 2),
-                    textcoords="offset points",
-                )
+            number = number_points(ax, cost, np.maximum(err, floor), number)
         ax.set_xlabel("cost per impact (µs, single core)")
         ax.set_ylabel(
             "max one-step error of impact time (s)"
@@ -418,14 +405,50 @@ class FlatBenchResult(Result):
         ax.legend(fontsize=8)
         return ax
 
+    def drawn_rows(self) -> list[tuple[str, str, list[dict[str, Any]]]]:
+        """``(method, marker, rows)`` of the work-precision panels, in the order drawn."""
+        markers = {"exact": "o", "fixed_step": "s", "solve_ivp": "^"}
+        drawn = []
+        for method, marker in markers.items():
+            rows = [r for r in self.meta["rows"]
+                    if r["method"] == method and "continuous" not in r["setting"]]  # fmt: skip
+            if rows:
+                drawn.append((method, marker, rows))
+        return drawn
 
-def _short(row: dict[str, Any]) -> str:
+    def point_key(self) -> list[str]:
+        """The points of the panels in words, in the order of their numbers."""
+        return [describe(r) for _, _, rows in self.drawn_rows() for r in rows]
+
+
+def number_points(ax, x, y, first: int) -> int:
+    """Write the numbers ``first, first + 1, ...`` beside the points (x, y); returns the next."""
+    for i, (xi, yi) in enumerate(zip(x, y, strict=True)):
+        ax.annotate(str(first + i), (xi, yi), fontsize=7, xytext=(3, 2), textcoords="offset points")
+    return first + len(x)
+
+
+def draw_point_key(fig, lines: list[str]) -> None:
+    """The numbered points in words, as a column right of the panels of ``fig``."""
+    text = "\n".join(f"{i}: {line}" for i, line in enumerate(lines, start=1))
+    fig.text(1.0, 0.5, text, fontsize=7, va="center", ha="left", family="monospace")
+
+
+def describe(row: dict[str, Any]) -> str:
+    """A benchmark row's method and setting in words (steps in s, max step in periods)."""
     if row["method"] == "fixed_step":
-        return f"{row['dt']:g}/{row['dt_min']:g}"
+        return f"fixed step {row['dt']:g} s, refined to {row['dt_min']:g} s"
     if row["method"] == "solve_ivp":
-        label = f"{row['ivp_method']} {row['frame'][0]} {row['rtol']:g}"
-        return label + ("" if math.isinf(row["max_step_periods"]) else " m")
-    return "" if row.get("step_rel", ROOT_STEP_REL) == ROOT_STEP_REL else f"{row['step_rel']:g}"
+        text = f"solve_ivp {row['ivp_method']}, {row['frame']} frame, rtol {row['rtol']:g}"
+        if math.isfinite(row["max_step_periods"]):
+            text += f", max step {row['max_step_periods']:g} periods"
+        return text
+    step_rel = row.get("step_rel")
+    if step_rel is None:  # billiard rows: the setting's first clause
+        return "exact, " + row["setting"].split(" (")[0].split(",")[0]
+    if step_rel == ROOT_STEP_REL:
+        return f"exact, default root tolerance ({ROOT_STEP_REL / EPS:g} eps of the flight time)"
+    return f"exact, root tolerance {step_rel:g} of the flight time"
 
 
 def compute(settings: dict[str, Any], *, log=None) -> FlatBenchResult:
@@ -479,15 +502,19 @@ def compute(settings: dict[str, Any], *, log=None) -> FlatBenchResult:
 
 
 def draw(result: FlatBenchResult):
-    """Figure of the benchmark: time and velocity work-precision panels."""
+    """Figure of the benchmark: time and velocity work-precision panels, the numbered points
+    named in words on the right."""
     import matplotlib.pyplot as plt
 
     fig, axes = plt.subplots(1, 2, figsize=(11, 4.5))
     result.plot(axes[0], which="time")
     result.plot(axes[1], which="velocity")
     case = result.meta["case"]
-    fig.suptitle(f"flat ball work-precision (f = {case['f']} Hz, alpha = {case['alpha']})")
+    n = result.meta["settings"]["n_impacts"] if "settings" in result.meta else None
+    fig.suptitle(f"flat ball work-precision (f = {case['f']} Hz, alpha = {case['alpha']}"
+                 + (f", {n} one-step flights per point)" if n else ")"))  # fmt: skip
     fig.tight_layout()
+    draw_point_key(fig, result.point_key())
     return fig
 
 

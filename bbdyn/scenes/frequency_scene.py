@@ -16,7 +16,12 @@ from bbdyn.results import Result, make_meta
 from bbdyn.scans.cache import diffusion_scan
 from bbdyn.tongues import tongue_intervals
 
-__all__ = ["SCENE_KEYS", "FrequencyScanScene", "scan_scene"]
+__all__ = ["D_ZERO", "SCENE_KEYS", "FrequencyScanScene", "scan_scene"]
+
+#: |D| and D_err (mm^2/s) at or below this are zero to rounding: far above the rounding of
+#: an MSD slope of frozen particles (eps x^2 / t ~ 1e-16 (100 mm)^2 / 100 s = 1e-14) and
+#: far below the D of one particle of 1000 moving 1 mm in 200 s (1 / (2 1000 200) = 2.5e-6).
+D_ZERO = 1e-9
 
 #: Outputs of a scan that the scenes keep (scalars per frequency).
 SCENE_KEYS = (
@@ -80,11 +85,30 @@ class FrequencyScanScene(Result):
         return ax
 
     def mark_tongues(self, ax) -> None:
-        """Shade the k/1 tongue intervals and label them k/1 at the top of ``ax``."""
-        for k, lo, hi in self["tongues"]:
-            ax.axvspan(lo, hi, color="tab:orange", alpha=0.15, lw=0)
+        """Shade the k/1 tongue intervals, label them k/1 at the top of ``ax`` and name the
+        shading once in the legend."""
+        for i, (k, lo, hi) in enumerate(self["tongues"]):
+            label = "k/1 tongue of the flat ball" if i == 0 else None
+            ax.axvspan(lo, hi, color="tab:orange", alpha=0.15, lw=0, label=label)
             ax.text(0.5 * (lo + hi), 1.0, f"{int(k)}/1", transform=ax.get_xaxis_transform(),
                     ha="center", va="bottom", fontsize=8, color="tab:orange")  # fmt: skip
+
+    def run_title(self, what: str) -> str:
+        """``what`` with the f-range (Hz), number of frequencies, n and t (s) of the scan."""
+        f = self["f"]
+        run = self.meta["scan_compute"]["kwargs"]
+        return (f"{what}\nf = {f.min():g}-{f.max():g} Hz ({f.size} frequencies), "
+                f"n = {run['n']} particles, t = {run['t']:g} s")  # fmt: skip
+
+    def mark_points(self, ax, key: str, where: np.ndarray, label: str, **style) -> None:
+        """Mark ``key`` at the frequencies where ``where`` holds (a legend entry only if any)."""
+        if np.any(where):
+            ax.plot(self["f"][where], self[key][where], ls="none", label=label, **style)
+
+    def D_zero_to_rounding(self) -> np.ndarray:
+        """Frequencies whose D and D_err are both zero to rounding (``D_ZERO``, mm^2/s): every
+        particle frozen over the D window, so D cannot be unconverged whatever the windows say."""
+        return (np.abs(self["D"]) <= D_ZERO) & (self["D_err"] <= D_ZERO)
 
     def flagged(self) -> dict[str, list[float]]:
         """Frequencies whose convergence checks raised a flag (see the module docstring)."""

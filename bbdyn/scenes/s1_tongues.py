@@ -57,18 +57,27 @@ def compute(settings: dict, seed: int = 0) -> SceneS1Result:
 
 
 def draw(result: Result, ax=None):
-    """Tongues as shaded bands in (Gamma, alpha), numeric edges as markers; returns the Figure."""
-    fig, ax = figure_axes(ax, figsize=(6.5, 4.5))
+    """Tongues as shaded bands in (Gamma, alpha), numeric edges as markers named in the legend
+    (outside the axes); returns the Figure."""
+    fig, ax = figure_axes(ax, figsize=(8.5, 4.5), layout="constrained")
     a = result["alpha_curve"]
     for i, k in enumerate(result["k"]):
         lo, hi = result["gamma_lo_curve"][i], result["gamma_hi_curve"][i]
-        ax.fill_betweenx(a, lo, hi, alpha=0.35, label=f"{k}/1 (closed form)")
+        ax.fill_betweenx(a, lo, hi, alpha=0.35, label=f"{k}/1 tongue (closed form)")
         ax.plot(lo, a, "k-", lw=0.6)
         ax.plot(hi, a, "k-", lw=0.6)
-        numeric = "numeric (exact map)" if i == 0 else None
-        ax.plot(result["gamma_lo_numeric"][i], result["alpha_points"], "kv", ms=4, label=numeric)
-        ax.plot(result["gamma_hi_numeric"][i], result["alpha_points"], "k^", ms=4)
-    ax.set(xlabel=r"$\Gamma = A\omega^2/g$", ylabel=r"$\alpha$", ylim=(0, 1), xlim=(0, None))
-    ax.set_title("k/1 Arnold tongues: multiplier +1 (v) and -1 (^) of the exact map")
-    ax.legend(loc="upper right", fontsize=8)
+        first = i == 0
+        ax.plot(result["gamma_lo_numeric"][i], result["alpha_points"], "kv", ms=4,
+                label="lower edge, multiplier +1 (exact map)" if first else None)  # fmt: skip
+        ax.plot(result["gamma_hi_numeric"][i], result["alpha_points"], "k^", ms=4,
+                label="upper edge, multiplier -1 (exact map)" if first else None)  # fmt: skip
+    ax.set(xlabel=r"$\Gamma = A\omega^2/g$ (1)", ylabel=r"$\alpha$ (1)", ylim=(0, 1),
+           xlim=(0, None))  # fmt: skip
+    ax.set_title(f"k/1 Arnold tongues of the flat ball, k = 1-{int(result['k'][-1])}: closed "
+                 f"form and {result['alpha_points'].size} edges per side from the exact map",
+                 fontsize=10)  # fmt: skip
+    handles, labels = ax.get_legend_handles_labels()
+    order = sorted(range(len(labels)), key=lambda j: "tongue" not in labels[j])  # bands first
+    ax.legend([handles[j] for j in order], [labels[j] for j in order], loc="upper left",
+              bbox_to_anchor=(1.01, 1.0), fontsize=8, frameon=False)  # fmt: skip
     return fig

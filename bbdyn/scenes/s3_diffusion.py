@@ -3,8 +3,8 @@
 D is the late-window Einstein slope of the reference ensemble (docs/model.md §3,
 ``bbdyn.scans.frequency.diffusion_point``), error bars one standard error over
 particles.  S3, S4 and S5 read one shared scan (``bbdyn.scans.cache.diffusion_scan``),
-computed once per setting and seed.  ``draw(result, regimes=b1)`` also shades the
-regime bands of a regime map (scene B1).
+computed once per setting and seed.  ``draw(result, regimes=b1)`` also draws the
+regime bands of a regime map (scene B1) as a strip under D(f).
 """
 
 from __future__ import annotations
@@ -50,22 +50,31 @@ def key_numbers(scene: FrequencyScanScene) -> dict:
 
 
 def draw(result: FrequencyScanScene, ax=None, regimes=None):
-    """D(f) with error bars, the k/1 tongues and, with ``regimes`` (a B1 result), the regime
-    bands; returns the Figure."""
-    fig, ax = figure_axes(ax, figsize=(9, 4.2))
-    if regimes is not None:
-        from bbdyn.scenes.b1_regime_map import regime_bands
+    """D(f) with error bars, the k/1 tongues and, with ``regimes`` (a B1 result), a strip of
+    the regimes under it; returns the Figure.  Window-disagreement flags are drawn except
+    where D and D_err are zero to rounding (nothing moves: D is exact)."""
+    import matplotlib.pyplot as plt
 
-        for lo, hi, label in regime_bands(regimes):
-            ax.axvspan(lo, hi, color="0.9", lw=0)
-            ax.text(0.5 * (lo + hi), 0.02, label, transform=ax.get_xaxis_transform(),
-                    ha="center", fontsize=7, color="0.3")  # fmt: skip
+    from bbdyn.scans.frequency import P_FLAG
+
+    if regimes is not None and ax is None:
+        fig, (ax, ax_reg) = plt.subplots(2, 1, figsize=(11, 4.8), sharex=True,
+                                         height_ratios=(1, 0.07), layout="constrained")  # fmt: skip
+        from bbdyn.scenes.b1_regime_map import draw_regime_strip
+
+        draw_regime_strip(ax_reg, regimes, loc="lower left", bbox_to_anchor=(1.01, -0.5))
+    else:
+        fig, ax = figure_axes(ax, figsize=(11, 4.4), layout="constrained")
     result.mark_tongues(ax)
     result.plot(ax, key="D")
-    bad = result["D_converged"] == 0
-    ax.plot(result["f"][bad], result["D"][bad], "rx", ms=6, label="D windows disagree")
+    if regimes is not None and len(fig.axes) > 1:
+        ax.set_xlabel("")  # on the regime strip below
+        fig.axes[1].set_xlabel("f (Hz)")
+    flag = (result["D_converged"] == 0) & ~result.D_zero_to_rounding()
+    result.mark_points(ax, "D", flag, f"D windows disagree (p < {P_FLAG:g})",
+                       marker="x", color="r", ms=6)  # fmt: skip
     ax.set_ylabel(r"$D$ (mm$^2$/s)")
-    n, t = result.meta["scan_compute"]["kwargs"]["n"], result.meta["scan_compute"]["kwargs"]["t"]
-    ax.set_title(f"D(f): n = {n} particles, t = {t:g} s, bars: 1 standard error", pad=14)
-    ax.legend(loc="upper left", fontsize=8)
+    ax.set_title(result.run_title("Diffusion coefficient D(f), Einstein slope over [t/2, t]")
+                 + "; bars: 1 standard error", pad=14)  # fmt: skip
+    ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=8, frameon=False)
     return fig

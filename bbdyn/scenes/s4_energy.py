@@ -33,12 +33,19 @@ def compute(settings: dict, seed: int = 0, out_dir=None, progress=False) -> Freq
 
 
 def draw(result: FrequencyScanScene, ax=None):
-    """E(f) with error bars and A^2 w^2 / 2; returns the Figure."""
-    fig, ax = figure_axes(ax, figsize=(9, 4.2))
+    """E(f) with error bars and A^2 w^2 / 2, non-stationary energies marked; returns the
+    Figure."""
+    from bbdyn.scans.frequency import P_FLAG
+
+    fig, ax = figure_axes(ax, figsize=(11, 4.4), layout="constrained")
     result.mark_tongues(ax)
     result.plot(ax, key="E")
     ax.plot(result["f"], result["E_reference"], "k--", lw=1, label=r"$A^2\omega^2/2$")
+    result.mark_points(ax, "E", result["energy_stationary"] == 0,
+                       f"energy not stationary (drift, p < {P_FLAG:g})", marker="s", ms=6,
+                       mfc="none", mec="r")  # fmt: skip
     ax.set_ylabel(r"$E$ (kg mm$^2$/s$^2$)")
-    ax.set_title("steady-state energy, period and ensemble average", pad=14)
-    ax.legend(loc="upper left", fontsize=8)
+    ax.set_title(result.run_title("Steady-state energy E(f)") + "; bars: 1 standard error",
+                 pad=14)  # fmt: skip
+    ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=8, frameon=False)
     return fig

@@ -30,10 +30,17 @@ def compute(settings: dict, seed: int = 0, out_dir=None, progress=False) -> Freq
 
 
 def draw(result: FrequencyScanScene, ax=None):
-    """E_x(f) with error bars; returns the Figure."""
-    fig, ax = figure_axes(ax, figsize=(9, 4.2))
+    """E_x(f) with error bars, non-stationary energies marked; returns the Figure."""
+    from bbdyn.scans.frequency import P_FLAG
+
+    fig, ax = figure_axes(ax, figsize=(11, 4.4), layout="constrained")
     result.mark_tongues(ax)
     result.plot(ax, key="E_x")
+    result.mark_points(ax, "E_x", result["energy_stationary"] == 0,
+                       f"energy not stationary (drift, p < {P_FLAG:g})", marker="s", ms=6,
+                       mfc="none", mec="r")  # fmt: skip
     ax.set_ylabel(r"$E_x = \langle v_x^2/2 \rangle$ (kg mm$^2$/s$^2$)")
-    ax.set_title("steady-state horizontal kinetic energy", pad=14)
+    ax.set_title(result.run_title("Steady-state horizontal kinetic energy E_x(f)")
+                 + "; bars: 1 standard error", pad=14)  # fmt: skip
+    ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=8, frameon=False)
     return fig

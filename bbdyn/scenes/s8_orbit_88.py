@@ -65,8 +65,12 @@ def draw(result: PoincareResult, ax=None):
     import matplotlib.pyplot as plt
 
     if ax is None:
-        fig, (ax_path, ax) = plt.subplots(1, 2, figsize=(12, 4.5))
+        fig, (ax_path, ax) = plt.subplots(1, 2, figsize=(12, 4.8), layout="constrained")
         _draw_path(result, ax_path)
+        m = result.meta
+        fig.suptitle(f"f = {m['params']['f']:g} Hz: one particle of an ensemble of n = {m['n']}"
+                     f" after a transient of t = {m['transient']:g} s, then {m['n_events']} "
+                     "events", fontsize=10)  # fmt: skip
     else:
         fig = ax.figure
     impacts = result.impacts()
@@ -102,7 +106,5 @@ def _draw_path(result: PoincareResult, ax) -> None:
     ax.plot([], [], "-", color="0.5", label="floor under the particle")
     t_ms = 1e3 * result["piece_t"][-1]
     ax.set(xlabel="x (mm)", ylabel="y (mm)")
-    ax.set_title(
-        f"f = {result.meta['params']['f']:g} Hz: {ends.size} flights, {t_ms:.0f} ms", fontsize=9
-    )
-    ax.legend(fontsize=8)
+    ax.set_title(f"path over {ends.size} flights, {t_ms:.0f} ms", fontsize=9)
+    ax.legend(fontsize=8, loc="upper left", bbox_to_anchor=(0.0, -0.12), ncol=2, frameon=False)

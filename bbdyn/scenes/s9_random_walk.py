@@ -102,12 +102,14 @@ def _median_ratio(num: np.ndarray, den: np.ndarray, mask: np.ndarray) -> str:
 
 
 def draw(result: Result, ax=None):
-    """D, D_rw, D_a against f (top) and the measured r (bottom); returns the Figure."""
+    """D, D_rw, D_a against f on a log axis (top) and the measured r (bottom); returns the
+    Figure.  Values within two standard errors of zero or below (no escape seen, or too few
+    to tell), which a log axis cannot show, are marked on its bottom edge."""
     import matplotlib.pyplot as plt
 
     if ax is None:
         fig, (ax, ax_r) = plt.subplots(
-            2, 1, figsize=(7, 6), sharex=True, height_ratios=(2.2, 1), layout="constrained"
+            2, 1, figsize=(9.5, 6.5), sharex=True, height_ratios=(2.2, 1), layout="constrained"
         )
     else:
         fig, ax_r = ax.figure, None
@@ -115,22 +117,50 @@ def draw(result: Result, ax=None):
     f2 = result.meta["f_gamma2"]
     for a in (ax, ax_r):
         if a is not None and f[0] < f2:
-            a.axvspan(f[0], f2, color="0.9", zorder=0)
-    ax.errorbar(f, result["D"], result["D_err"], fmt="o", ms=3, capsize=2, label="Einstein $D$")
-    ax.errorbar(f, result["D_rw"], result["D_rw_err"], fmt="s-", ms=3, lw=0.8,
-                label=r"$D_{rw} = d^2 / 2\tau$")  # fmt: skip
-    ax.errorbar(f, result["D_a"], result["D_a_err"], fmt="^-", ms=3, lw=0.8,
-                label="$D_a$ (measured $r$)")  # fmt: skip
-    if f[0] < f2:
-        ax.text(0.5 * (f[0] + f2), 0.97, r"$\Gamma < 2$:" + "\n$D_a$\nundefined",
-                transform=ax.get_xaxis_transform(), ha="center", va="top", fontsize=8)  # fmt: skip
-    ax.set_ylabel("$D$ (mm$^2$/s)")
-    ax.set_title("S9: Einstein $D$ and random-walk approximations")
-    ax.legend(fontsize=8, frameon=False)
+            label = r"$\Gamma < 2$: $D_a$ undefined" if a is ax else None
+            a.axvspan(f[0], f2, color="0.9", zorder=0, lw=0, label=label)
+    ax.set_yscale("log")
+    series = (("D", "o", "Einstein $D$"), ("D_rw", "s-", r"$D_{rw} = d^2 / 2\tau$"),
+              ("D_a", "^-", "$D_a$ (measured $r$)"))  # fmt: skip
+    for i, (key, fmt, label) in enumerate(series):
+        _log_series(ax, f, result[key], result[key + "_err"], fmt, f"C{i}", label, row=i)
+    if any(_near_zero(result[k], result[k + "_err"]).any() for k, _, _ in series):
+        ax.plot([], [], "v", color="0.4", mfc="none", label="within 2 standard errors of 0\n"
+                "or below: along the bottom edge")  # fmt: skip
+    ax.set_ylabel("$D$ (mm$^2$/s, log scale)")
+    ax.set_title(_title(result))
+    ax.legend(fontsize=8, loc="upper left", bbox_to_anchor=(1.01, 1.0), frameon=False)
     if ax_r is not None:
         ax_r.errorbar(f, result["r"], result["r_err"], fmt="o-", ms=3, lw=0.8, color="C3")
-        ax_r.set_ylabel("$r = E_y / E_x$")
+        ax_r.set_ylabel("$r = E_y / E_x$ (1)")
         ax_r.set_xlabel("$f$ (Hz)")
     else:
         ax.set_xlabel("$f$ (Hz)")
     return fig
+
+
+def _title(result: Result) -> str:
+    """f-range (Hz), n and t (s) of the scan behind the figure."""
+    f = result["f"]
+    run = result.meta.get("scan_manifest", {}).get("compute", {}).get("kwargs", {})
+    nt = f"n = {run['n']} particles, t = {run['t']:g} s" if {"n", "t"} <= run.keys() else ""
+    return (f"Einstein $D$ and random-walk approximations\n"
+            f"f = {f[0]:g}-{f[-1]:g} Hz ({f.size} frequencies), {nt or 'n, t unknown'}; "
+            "bars: 1 standard error")  # fmt: skip
+
+
+def _near_zero(y: np.ndarray, err: np.ndarray) -> np.ndarray:
+    """Finite values ``y`` not above two standard errors ``err``: zero within the noise."""
+    return np.isfinite(y) & ~(y > 2 * err)
+
+
+def _log_series(ax, f, y, err, fmt: str, color: str, label: str, row: int = 0) -> None:
+    """``y`` (mm^2/s) with error bars on a log axis; values within two standard errors of
+    zero or below as open triangles along the bottom edge, series ``row`` a little higher
+    than series ``row - 1`` so that they do not hide each other (NaN stays a gap)."""
+    low = _near_zero(y, err)
+    ax.errorbar(f, np.where(low, np.nan, y), err, fmt=fmt, ms=3, lw=0.8, capsize=2,
+                color=color, label=label)  # fmt: skip
+    if low.any():
+        ax.plot(f[low], np.full(low.sum(), 0.025 * row), "v", color=color, mfc="none", ms=5,
+                clip_on=False, transform=ax.get_xaxis_transform())  # fmt: skip
