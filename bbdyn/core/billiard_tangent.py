@@ -46,7 +46,7 @@ positions unchanged.  The impact time depends on the state through the gap
 (``dt_c = -grad h . dz- / hdot-``: the floor's height *and* its motion), the
 reflection on the state through the normal at the impact point
 (``dn/dxi = t / S``, ``dt/dxi = -n / S``) and on the time through ``U``.
-Differentiating ``z+(t_c + dt_c) `` and carrying it back to the reference time,
+Differentiating ``z+(t_c + dt_c)`` and carrying it back to the reference time,
 
     S = Dg + (f+ - Dg f- - g_t) grad h^T / hdot-,
 
