@@ -14,7 +14,6 @@ and parameters for every flight, so timing a flight does not time the compilatio
 Loads heyoka only when a class is instantiated.
 """
 
-import importlib.util
 import math
 
 __all__ = [
@@ -30,7 +29,11 @@ __all__ = [
 
 def heyoka_available() -> bool:
     """True if the optional package heyoka (extra ``peers``) can be imported."""
-    return importlib.util.find_spec("heyoka") is not None
+    try:
+        import heyoka  # noqa: F401
+    except ImportError:
+        return False
+    return True
 
 
 def heyoka_version() -> str | None:
@@ -196,11 +199,12 @@ class BilliardTaylor:
             k = int(side)
         # segments: the clear start, then one per tile the flight can reach
         n_segments = 3 + int(abs(vx) * t_end / d)
+        reached = 0.0  # end of the last segment (ta.time may round it down)
         for _ in range(n_segments):
             ta.pars[8] = k * d
             # Time at which xi reaches the edge ahead (inf for vx = 0).
             edge = (side * half + k * d - xi0) / vx if vx != 0.0 else math.inf
-            stop = min(edge, t_end, t_clear) if ta.time < t_clear else min(edge, t_end)
+            stop = min(edge, t_end, t_clear) if reached < t_clear else min(edge, t_end)
             if _event_index(ta.propagate_until(stop)) == 0:
                 xi = xi0 + float(ta.state[2]) - k * d
                 return float(ta.time), k, xi, float(ta.state[1])
@@ -208,6 +212,7 @@ class BilliardTaylor:
                 return math.inf, k, math.nan, math.nan
             if stop == edge:  # over to the neighbouring tile
                 k += int(side)
+            reached = stop
         raise RuntimeError(
             f"BilliardTaylor.flight did not end after {n_segments} segments "
             f"(phase {phase}, xi0 {xi0}, vx {vx}, vyrel {vyrel}): a bug in the tile bookkeeping"
