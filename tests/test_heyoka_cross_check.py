@@ -27,6 +27,7 @@ from bbdyn.core.status import IMPACT, OK, STICK
 from bbdyn.core.tolerances import EPS, ROOT_STEP_REL
 from bbdyn.params import Params
 from bbdyn.reference import heyoka_flight
+from bbdyn.reference.billiard_mpmath import reference_flight
 from bbdyn.scenes import b2_billiard, b2_flat
 
 pytest.importorskip(
@@ -116,21 +117,45 @@ def test_billiard_impact_times_agree_on_the_b2_attractor():
 STATIC = Params(f=50.0, A=0.0)
 
 
-def test_static_floor_flights_landing_on_other_tiles():
-    """Random departures from a floor at rest: contact tile and time agree, many tiles away."""
-    kp = STATIC.kernel()
-    rng = np.random.default_rng(12)
+def _static_starts(kp, n, seed=12):
+    """``n`` random departures ``(phase, xi0, vx, vyrel)`` that leave the arc."""
+    rng = np.random.default_rng(seed)
     starts = []
-    while len(starts) < N_FLIGHTS:
+    while len(starts) < n:
         xi0 = rng.uniform(-0.5 * kp.d, 0.5 * kp.d)
         vx, vyrel = rng.uniform(-400.0, 400.0), rng.uniform(1.0, 150.0)
         if _arc_rate(kp, xi0, vx, vyrel) > 0.0:  # leaves the arc
             starts.append((rng.uniform(0.0, 2.0 * math.pi), xi0, vx, vyrel))
-    out = _compare_billiard(kp, starts)
+    return starts
+
+
+def test_static_floor_flights_landing_on_other_tiles():
+    """Random departures from a floor at rest: contact tile and time agree, many tiles away."""
+    kp = STATIC.kernel()
+    out = _compare_billiard(kp, _static_starts(kp, N_FLIGHTS))
     _assert_agree(out)
     assert np.median(out["tol"] / out["tau"]) < MEDIAN_TOL_REL
     # The tile bookkeeping is exercised: many flights end on another tile, some far away.
     assert np.mean(out["k"] != 0) > 0.5 and np.abs(out["k"]).max() >= 5
+
+
+def test_heyoka_alone_against_the_mpmath_references():
+    """heyoka's contact times against 40-digit roots, without the exact kernels in between."""
+    params = b2_flat.case_params()
+    kp = params.kernel()
+    states = b2_flat.start_states(params, 8)  # mpmath one-step references on the orbit
+    taylor = heyoka_flight.FlatTaylor(kp)
+    for phase, vrel, tau_ref in zip(states["phase"], states["vrel"], states["tau"], strict=True):
+        tau, vm = taylor.flight(float(phase), float(vrel))
+        assert abs(tau - tau_ref) <= time_tolerance(kp, tau_ref, vrel, vm)
+    kp = STATIC.kernel()
+    taylor = heyoka_flight.BilliardTaylor(kp)
+    for phase, xi0, vx, vyrel in _static_starts(kp, 8, seed=3):
+        tau, k, xi, vym = taylor.flight(phase, xi0, vx, vyrel)
+        tau_ref = reference_flight(kp, phase, xi0, vx, vyrel, k, tau)[0]
+        assert abs(tau - tau_ref) <= time_tolerance(
+            kp, tau_ref, vyrel, _arc_rate(kp, xi, vx, vym), vx
+        )
 
 
 def _apex_over_next_top(kp, side, clearance):
