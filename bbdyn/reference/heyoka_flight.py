@@ -1,7 +1,7 @@
 """A generic high-order integrator with event detection as a yardstick: heyoka's Taylor method.
 
 heyoka (https://bluescarni.github.io/heyoka.py/, the optional extra ``peers``) integrates
-an ODE with an adaptive Taylor method (order ~20 at a tolerance of machine epsilon) and
+an ODE with an adaptive Taylor method (its order set by the tolerance, machine epsilon) and
 finds the roots of an event function from the Taylor polynomial of that function over
 every step, so a contact inside a step is found even when the gap does not change sign
 at the step's ends.  Nothing here calls bbdyn's kernels: the flights are integrated
@@ -9,9 +9,9 @@ from the equations of docs/model.md, which makes them an independent check of
 ``bbdyn.core.flat`` and ``bbdyn.core.billiard`` (``tests/test_heyoka_cross_check.py``)
 and a peer row of the work-precision benchmarks (scene B2).
 
-Each class builds its integrator once (a JIT compilation, ~0.2 s) and sets time, state
+Each class builds its integrator once (a JIT compilation) and sets time, state
 and parameters for every flight, so timing a flight does not time the compilation.
-Loads heyoka only when a class is instantiated.
+Loads heyoka only when a class is instantiated (or ``heyoka_available`` is asked).
 """
 
 import math
