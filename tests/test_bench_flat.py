@@ -13,6 +13,8 @@ from bbdyn.core.status import IMPACT, OK
 from bbdyn.core.tolerances import EPS, ROOT_STEP_REL
 from bbdyn.reference.fixed_step import fixed_step_one_step, fixed_step_run
 from bbdyn.reference.flat_ivp import ivp_flight
+from bbdyn.reference.heyoka_flight import heyoka_available
+from bbdyn.scenes import b2_flat
 from bbdyn.scenes.b2_flat import (
     case_params,
     exact_one_step,
@@ -234,7 +236,8 @@ def test_bench_flat_json_rows_have_finite_fields(tmp_path, capsys, monkeypatch):
     argv = ["bench", "flat", "--quick", "--json", "--impacts", "6", "--long-run", "200"]
     assert cli.main([*argv, "--out", str(png)]) == 0
     rows = json.loads(capsys.readouterr().out)
-    assert {r["method"] for r in rows} == {"exact", "fixed_step", "solve_ivp"}
+    peers = {"heyoka"} if heyoka_available() else set()
+    assert {r["method"] for r in rows} == {"exact", "fixed_step", "solve_ivp"} | peers
     for row in rows:
         for key in ("impacts_per_s", "max_time_error_s", "max_velocity_error"):
             assert math.isfinite(row[key]) and row[key] >= 0, (row["setting"], key)
@@ -243,3 +246,14 @@ def test_bench_flat_json_rows_have_finite_fields(tmp_path, capsys, monkeypatch):
     assert png.exists() and png.with_suffix(".json").exists()
     saved = json.loads(png.with_suffix(".json").read_text())
     assert saved["kind"] == "bench_flat" and len(saved["meta"]["rows"]) == len(rows)
+
+
+def test_without_heyoka_the_table_says_so(monkeypatch):
+    """No heyoka row when heyoka is not importable, and the table says why."""
+    monkeypatch.setattr(b2_flat, "heyoka_available", lambda: False)
+    monkeypatch.setattr(b2_flat, "heyoka_version", lambda: None)
+    settings = dict(b2_flat.QUICK, n_impacts=3, exact_tols=[], fixed=[], ivp=[], long_run=50)
+    settings.update(long_run_fixed=[], continuous_events=100, repeats=1, min_time=0.0)
+    res = b2_flat.compute(settings, log=lambda msg: None)
+    assert "heyoka" not in {r["method"] for r in res.meta["rows"]}
+    assert "heyoka not installed" in b2_flat.table(res)

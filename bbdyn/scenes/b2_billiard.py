@@ -17,6 +17,13 @@ same flight's gap on the tile of the exact contact
 and a fixed-step contact more than ``WRONG_CONTACT_REL`` of the flight away from
 it is counted as a wrong contact (missed or spurious).
 
+Peer: ``heyoka`` (only if the optional package is installed, extra ``peers``), a
+generic high-order integrator with event detection (adaptive Taylor method at a
+tolerance of machine epsilon, ``bbdyn.reference.heyoka_flight.BilliardTaylor``: the
+flight relative to the floor level, one tile at a time, the gap to the tile's arc
+as terminal event), from the same start states, then the same impact law; its
+integrator is built once and reused for every flight.
+
 Observables: D and the period-averaged energies of the same small ensemble with
 the exact kernel and with the fixed-step method at one frequency, with standard
 errors (independent chaotic runs: the difference's error is the quadrature sum).
@@ -51,6 +58,12 @@ from bbdyn.reference.fixed_step_billiard import (
     fixed_step_billiard_one_step,
     fixed_step_ensemble,
 )
+from bbdyn.reference.heyoka_flight import (
+    BilliardTaylor,
+    heyoka_available,
+    heyoka_version,
+    missing_note,
+)
 from bbdyn.reference.timing import ERROR_COLUMNS, format_rows, measure, single_thread
 from bbdyn.results import Result, make_meta
 
@@ -77,7 +90,10 @@ CASE = {"f": 85.2, "start": (0.0, 0.0, 0.0, 0.3, 10.0, 40.0, IMPACT), "transient
 #: contact is late by less than that), ended at a different contact.
 WRONG_CONTACT_REL = 0.01
 
-TITLE = "Billiard work-precision: impact-time error against cost per collision (exact, fixed step)"
+TITLE = (
+    "Billiard work-precision: impact-time error against cost per collision "
+    "(exact, fixed step, heyoka)"
+)
 QUICK: dict[str, Any] = {
     "n_impacts": 60,
     "fixed": [(1e-4, 1e-6), (1e-4, 1e-8)],
@@ -311,6 +327,29 @@ def _bench_fixed(kp, starts, ref, settings) -> list[dict[str, Any]]:
     return rows
 
 
+def _bench_heyoka(kp, starts, ref, settings) -> list[dict[str, Any]]:
+    """The heyoka row (Taylor method, tolerance eps); none if heyoka is not installed."""
+    if not heyoka_available():
+        return []
+    n = starts.shape[0]
+    tau, vx, vy = np.empty(n), np.empty(n), np.empty(n)
+    taylor = BilliardTaylor(kp)
+
+    def run():
+        for i in range(n):
+            phase, xi0, vx0, vyrel = (float(v) for v in starts[i])
+            tau[i], _, xi, vym = taylor.flight(phase, xi0, vx0, vyrel)
+            vx[i], vyr, _, _ = bounce(xi, vx0, vym, kp)
+            vy[i] = vyr - kp.A * kp.w * math.cos(phase + kp.w * tau[i])
+
+    timing = measure(run, repeats=settings["repeats"], min_time=settings["min_time"])
+    rate = timing.per_second(n)
+    row = {"method": "heyoka", "setting": f"Taylor order {taylor.ta.order}, tol=eps, + impact law"}
+    row.update(tol=taylor.ta.tol, impacts_per_s=rate, collisions_per_s=rate)
+    row.update(_errors(ref, tau, vx, vy))
+    return [row]
+
+
 def _observables(params, settings) -> list[dict[str, Any]]:
     """D and energies of the same ensemble (seed, box) with the exact and fixed-step methods."""
     from bbdyn.ensemble import ensemble
@@ -403,10 +442,11 @@ class BilliardBenchResult(Result):
         """``(method, marker, rows)`` of the work-precision panel (rows with a measured
         error), in the order drawn."""
         drawn = []
-        for method, marker in (("exact", "o"), ("fixed_step", "s")):
+        for method, marker in (("exact", "o"), ("fixed_step", "s"), ("heyoka", "D")):
             rows = [r for r in self.meta["rows"]
                     if r["method"] == method and math.isfinite(r["max_time_error_s"])]  # fmt: skip
-            drawn.append((method, marker, rows))
+            if rows:
+                drawn.append((method, marker, rows))
         return drawn
 
     def point_key(self) -> list[str]:
@@ -439,6 +479,8 @@ def compute(settings: dict[str, Any], *, log=None) -> BilliardBenchResult:
     rows = _bench_exact(kp, states, starts, ref, settings) + [ens_row]
     log("bench billiard: fixed step")
     rows += _bench_fixed(kp, starts, ref, settings)
+    log("bench billiard: heyoka" if heyoka_available() else "bench billiard: heyoka not installed")
+    rows += _bench_heyoka(kp, starts, ref, settings)
     exact_speed = rows[0]["collisions_per_s"]
     for row in rows:
         row["cost_ratio_to_exact"] = exact_speed / row["collisions_per_s"]
@@ -457,6 +499,7 @@ def compute(settings: dict[str, Any], *, log=None) -> BilliardBenchResult:
         rows=rows,
         observables=observables,
         profile=profile,
+        peers={"heyoka": heyoka_version()},
         errors="one-step: every method restarts from the same float64 state on the attractor",
     )
     return BilliardBenchResult(arrays, meta)
@@ -488,6 +531,7 @@ def table(result: BilliardBenchResult) -> str:
     """The rows, the observables comparison and the profile as plain text."""
     columns = (("collisions_per_s", "coll/s", 9, ".3g"), *ERROR_COLUMNS)
     lines = format_rows(result.meta["rows"], columns, 48)
+    lines += missing_note(result.meta.get("peers"))
     cfg = result.meta["settings"]["observables"]
     lines += ["", f"observables at {result.meta['case']['f']} Hz, n={cfg['n']}, t={cfg['t']} s:"]
     for r in result.meta["observables"]:

@@ -13,7 +13,11 @@ Three ways to find the next impact are compared against the mpmath reference
   frame (state ``y, v``, ``y'' = -g``, event ``y - y_p(t)``: the solution is a
   parabola, which Runge-Kutta methods reproduce exactly, so only the event
   location and missed contacts matter) or in the plate frame (state ``G, G'``,
-  ``G'' = -g - A w^2 sin(w t)``, event ``G``: here the tolerance matters).
+  ``G'' = -g - A w^2 sin(w t)``, event ``G``: here the tolerance matters);
+* ``heyoka`` (only if the optional package is installed, extra ``peers``): a
+  generic high-order integrator with event detection, heyoka's adaptive Taylor
+  method at a tolerance of machine epsilon, plate frame as for ``solve_ivp``
+  (``bbdyn.reference.heyoka_flight.FlatTaylor``, built once, reused per flight).
 
 The case is chaotic and has no chattering in the compared window (``CASE``).
 Chaos amplifies any difference by about e^1.4 per impact, so errors are
@@ -46,6 +50,12 @@ from bbdyn.core.tolerances import EPS, ROOT_STEP_REL
 from bbdyn.params import Params
 from bbdyn.reference.fixed_step import fixed_step_one_step, fixed_step_run
 from bbdyn.reference.flat_ivp import ivp_flight
+from bbdyn.reference.heyoka_flight import (
+    FlatTaylor,
+    heyoka_available,
+    heyoka_version,
+    missing_note,
+)
 from bbdyn.reference.timing import ERROR_COLUMNS, format_rows, measure, single_thread
 from bbdyn.results import Result, make_meta
 
@@ -77,7 +87,10 @@ CASE = {"f": 82.0, "alpha": 0.8, "phase0": 1.6362617649333338, "vrel0": 135.8286
 #: it ended at a different contact (a missed or spurious one), not an inaccurate one.
 WRONG_CONTACT_REL = 0.01
 
-TITLE = "Flat ball work-precision: impact-time error against cost (exact, fixed step, solve_ivp)"
+TITLE = (
+    "Flat ball work-precision: impact-time error against cost "
+    "(exact, fixed step, solve_ivp, heyoka)"
+)
 QUICK: dict[str, Any] = {
     "n_impacts": 40,
     "exact_tols": [1e-4, 1e-10],
@@ -299,6 +312,26 @@ def _bench_ivp(kp, states, settings) -> list[dict[str, Any]]:
     return rows
 
 
+def _bench_heyoka(kp, states, settings) -> list[dict[str, Any]]:
+    """The heyoka row (Taylor method, tolerance eps); none if heyoka is not installed."""
+    if not heyoka_available():
+        return []
+    n = states["phase"].size
+    tau = np.empty(n)
+    vm = np.empty(n)
+    taylor = FlatTaylor(kp)
+
+    def run():
+        for i in range(n):
+            tau[i], vm[i] = taylor.flight(float(states["phase"][i]), float(states["vrel"][i]))
+
+    timing = measure(run, repeats=settings["repeats"], min_time=settings["min_time"])
+    row = {"method": "heyoka", "setting": f"Taylor order {taylor.ta.order} plate frame, tol=eps"}
+    row.update(tol=taylor.ta.tol, _tau=tau)
+    row.update(impacts_per_s=timing.per_second(n), **one_step_errors(kp, states, tau, vm))
+    return [row]
+
+
 #: Number of flights per timed call of the exact one-step loop.
 _EXACT_TILE = 10_000
 
@@ -407,7 +440,7 @@ class FlatBenchResult(Result):
 
     def drawn_rows(self) -> list[tuple[str, str, list[dict[str, Any]]]]:
         """``(method, marker, rows)`` of the work-precision panels, in the order drawn."""
-        markers = {"exact": "o", "fixed_step": "s", "solve_ivp": "^"}
+        markers = {"exact": "o", "fixed_step": "s", "solve_ivp": "^", "heyoka": "D"}
         drawn = []
         for method, marker in markers.items():
             rows = [r for r in self.meta["rows"]
@@ -443,6 +476,8 @@ def describe(row: dict[str, Any]) -> str:
         if math.isfinite(row["max_step_periods"]):
             text += f", max step {row['max_step_periods']:g} periods"
         return text
+    if row["method"] == "heyoka":
+        return "heyoka, " + row["setting"]
     step_rel = row.get("step_rel")
     if step_rel is None:  # billiard rows: the setting's first clause
         return "exact, " + row["setting"].split(" (")[0].split(",")[0]
@@ -478,6 +513,8 @@ def compute(settings: dict[str, Any], *, log=None) -> FlatBenchResult:
     rows += _bench_fixed(kp, states, settings)
     log("bench flat: solve_ivp")
     rows += _bench_ivp(kp, states, settings)
+    log("bench flat: heyoka" if heyoka_available() else "bench flat: heyoka not installed")
+    rows += _bench_heyoka(kp, states, settings)
     exact_speed = rows[0]["impacts_per_s"]
     for row in rows:
         row["cost_ratio_to_exact"] = exact_speed / row["impacts_per_s"]
@@ -496,6 +533,7 @@ def compute(settings: dict[str, Any], *, log=None) -> FlatBenchResult:
         settings=settings,
         rows=rows,
         long_run=long_run,
+        peers={"heyoka": heyoka_version()},
         errors="one-step: every method restarts from the same float64 state on the orbit",
     )
     return FlatBenchResult(arrays, meta)
@@ -526,6 +564,7 @@ def table(result: FlatBenchResult) -> str:
         ("gap_evals_per_impact", "evals", 6, ".3g"),
     )
     lines = format_rows(result.meta["rows"], columns, 50)
+    lines += missing_note(result.meta.get("peers"))
     lines.append("")
     lines.append(f"long run ({result.meta['case']['f']} Hz, alpha {result.meta['case']['alpha']}):")
     for r in result.meta["long_run"]:
