@@ -18,7 +18,7 @@ from bbdyn.tongues import tongue_intervals
 
 __all__ = ["D_ZERO", "SCENE_KEYS", "FrequencyScanScene", "scan_scene"]
 
-#: |D| and D_err (mm^2/s) at or below this are zero to rounding: far above the rounding of
+#: ``|D|`` and ``D_err`` (mm^2/s) at or below this are zero to rounding: far above the rounding of
 #: an MSD slope of frozen particles (eps x^2 / t ~ 1e-16 (100 mm)^2 / 100 s = 1e-14) and
 #: far below the D of one particle of 1000 moving 1 mm in 200 s (1 / (2 1000 200) = 2.5e-6).
 D_ZERO = 1e-9
