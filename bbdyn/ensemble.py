@@ -623,7 +623,7 @@ class EnsembleResult(Result):
         Times are measured from the start of the window (``t_total`` is its length).
         Raises ValueError if the run did not record jumps or a buffer overflowed.
         """
-        from bbdyn.approx import JumpData
+        from bbdyn.approx.jumps import JumpData
 
         if "jump_len" not in self.arrays:
             raise ValueError("jumps were not recorded: run with observables including 'jumps'")

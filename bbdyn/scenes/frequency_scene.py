@@ -16,12 +16,16 @@ from bbdyn.results import Result, make_meta
 from bbdyn.scans.cache import diffusion_scan
 from bbdyn.tongues import tongue_intervals
 
-__all__ = ["D_ZERO", "SCENE_KEYS", "FrequencyScanScene", "scan_scene"]
+__all__ = ["D_ZERO", "FULL", "QUICK", "SCENE_KEYS", "FrequencyScanScene", "scan_scene"]
 
 #: ``|D|`` and ``D_err`` (mm^2/s) at or below this are zero to rounding: far above the rounding of
 #: an MSD slope of frozen particles (eps x^2 / t ~ 1e-16 (100 mm)^2 / 100 s = 1e-14) and
 #: far below the D of one particle of 1000 moving 1 mm in 200 s (1 / (2 1000 200) = 2.5e-6).
 D_ZERO = 1e-9
+
+#: Settings of the shared scan, those of S3, S4 and S5: the grid (Hz), particles, time (s).
+QUICK = {"f_start": 49.8, "f_stop": 95.0, "f_step": 1.0, "n": 100, "t": 20.0}
+FULL = {"f_start": 49.8, "f_stop": 95.0, "f_step": 0.2, "n": 1000, "t": 200.0}
 
 #: Outputs of a scan that the scenes keep (scalars per frequency).
 SCENE_KEYS = (

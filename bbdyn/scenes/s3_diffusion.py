@@ -13,11 +13,10 @@ import numpy as np
 
 from bbdyn.scans.frequency import cpu_estimate, frequency_grid
 from bbdyn.scenes import figure_axes
-from bbdyn.scenes.frequency_scene import FrequencyScanScene, scan_scene
+from bbdyn.scenes.frequency_scene import FULL, QUICK, FrequencyScanScene, scan_scene
 
 TITLE = "Diffusion coefficient D(f) with standard errors and the k/1 tongues"
-QUICK = {"f_start": 49.8, "f_stop": 95.0, "f_step": 1.0, "n": 100, "t": 20.0}
-FULL = {"f_start": 49.8, "f_stop": 95.0, "f_step": 0.2, "n": 1000, "t": 200.0}
+__all__ = ["TITLE", "QUICK", "FULL", "compute", "cost", "draw", "key_numbers"]
 
 
 def compute(settings: dict, seed: int = 0, out_dir=None, progress=False) -> FrequencyScanScene:

@@ -10,8 +10,7 @@ from __future__ import annotations
 import numpy as np
 
 from bbdyn.scenes import figure_axes
-from bbdyn.scenes.frequency_scene import FrequencyScanScene, scan_scene
-from bbdyn.scenes.s3_diffusion import FULL, QUICK
+from bbdyn.scenes.frequency_scene import FULL, QUICK, FrequencyScanScene, scan_scene
 
 TITLE = "Steady-state horizontal kinetic energy E_x(f)"
 __all__ = ["TITLE", "QUICK", "FULL", "compute", "draw"]
