@@ -3,10 +3,11 @@
 Each particle is integrated event by event with ``billiard_event`` from its own
 initial state up to ``t_end`` by one loop, ``particle_loop``, shared by the
 ensemble observables (``run_ensemble``) and the classification features
-(``run_features``, accumulators in ``features.py``); flags switch the
-accumulators on.  Between events the motion (a parabola, or riding the floor
-after a STICK) is known exactly, so every observable is evaluated or integrated
-in closed form (``observables.py``) on the way.  Nothing is stored
+(``run_features``, accumulators in ``features.py``); the ``OBS_*`` flags switch
+the ensemble's observables on, the feature thresholds the features.  Between
+events the motion (a parabola, or riding the floor after a STICK) is known
+exactly, so every observable is evaluated or integrated in closed form
+(``observables.py``) on the way.  Nothing is stored
 per event unless a collision record is asked for: memory is proportional to the
 ensemble (and to the number of sample times and buffer sizes), not to the run.
 
