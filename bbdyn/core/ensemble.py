@@ -102,6 +102,14 @@ class Event(NamedTuple):
     kind: int  # IMPACT, STICK or RELEASE (core.status)
 
 
+class Window(NamedTuple):
+    """The averaging window: ``nb`` blocks of ``L`` whole periods from ``p0`` (phase 0)."""
+
+    p0: float
+    L: float
+    nb: int
+
+
 class RunTimes(NamedTuple):
     """When a run ends and when it measures (kernel argument); times as ``(periods, phase)``.
 
@@ -215,14 +223,14 @@ def accumulate_interval(acc, j, ev, b, lo, hi, kp, energy):
 
 
 @njit(cache=True)
-def integrate_blocks(acc, ev, hi, times, kp, energy):
+def integrate_blocks(acc, ev, hi, window, kp, energy):
     """Integrate the motion since the event ``ev`` up to ``hi``, per block of the window.
 
-    ``hi`` is a ``(periods, phase)`` pair; the part of ``[ev, hi]`` inside the window of
-    ``times`` (a ``RunTimes``) is cut at the block boundaries ``p0 + j L`` (phase 0) and
-    added to row ``j`` of ``acc`` (shape (nb, >= 4)) by ``accumulate_interval``.
+    ``hi`` is a ``(periods, phase)`` pair; the part of ``[ev, hi]`` inside the ``window``
+    (a ``Window``) is cut at the block boundaries ``p0 + j L`` (phase 0) and added to row
+    ``j`` of ``acc`` (shape (nb, >= 4)) by ``accumulate_interval``.
     """
-    p0, L, nb = times.p0, times.L, times.nb
+    p0, L, nb = window.p0, window.L, window.nb
     p1 = p0 + nb * L
     lo_p, lo_ph = ev.periods, ev.phase
     if is_before(lo_p, lo_ph, p0, 0.0):
@@ -245,7 +253,7 @@ def integrate_blocks(acc, ev, hi, times, kp, energy):
 
 
 @njit(cache=True)
-def fast_forward(carry, i, n_rel, ev, k, bound, times, out):
+def fast_forward(carry, i, n_rel, ev, k, bound, window, out):
     """Skip whole stick-release cycles of particle ``i`` once a release state repeats bitwise.
 
     Exactness: a RELEASE leaves at ``phase = theta_r`` with ``vx = vyrel = 0`` relative to
@@ -278,7 +286,7 @@ def fast_forward(carry, i, n_rel, ev, k, bound, times, out):
         This release.
     k : int
         Next sample index; ``bound`` its time ``(periods, phase)`` or the end.
-    times : RunTimes
+    window : Window
         The window (one block).
     out : EnsembleOut
         Row ``i`` of ``blocks`` and ``counts`` is advanced by the skipped cycles.
@@ -291,8 +299,8 @@ def fast_forward(carry, i, n_rel, ev, k, bound, times, out):
     rel, rel_acc, rel_cnt = carry.rel[i], carry.rel_acc[i], carry.rel_cnt[i]
     acc, counts = out.blocks[i], out.counts[i]
     periods, phase, tile, xi = ev.periods, ev.phase, ev.tile, ev.xi
-    p0 = times.p0
-    p1 = p0 + times.nb * times.L
+    p0 = window.p0
+    p1 = p0 + window.nb * window.L
     zone = (
         0.0
         if is_before(periods, phase, p0, 0.0)
@@ -407,7 +415,8 @@ def particle_loop(carry, i, budget, kp, times, out, obs, th):
     do_jumps = (flags & OBS_JUMPS) != 0
     do_ff = (flags & OBS_FAST_FORWARD) != 0 and not do_record
     end_p, end_ph = times.end_periods, times.end_phase
-    p0, L, nb = times.p0, times.L, times.nb
+    window = Window(times.p0, times.L, times.nb)
+    p0, L, nb = window
     p1 = p0 + nb * L
     sample_periods, sample_phase = times.sample_periods, times.sample_phase
     n_samples = sample_periods.shape[0]
@@ -431,7 +440,7 @@ def particle_loop(carry, i, budget, kp, times, out, obs, th):
         stuck = kind == STICK
         seg_end = (end_p, end_ph) if last else (n_periods, n_phase)
         integrate_blocks(
-            acc, Event(periods, phase, tile, xi, vx, vyrel, kind), seg_end, times, kp, energy
+            acc, Event(periods, phase, tile, xi, vx, vyrel, kind), seg_end, window, kp, energy
         )
 
         # positions at the sample times inside this interval (all remaining ones if last)
@@ -458,7 +467,7 @@ def particle_loop(carry, i, budget, kp, times, out, obs, th):
                     bound = (sample_periods[k], sample_phase[k])
                 K, dP, dl, n_rel = fast_forward(
                     carry, i, n_rel, Event(periods, phase, tile, xi, vx, vyrel, kind), k, bound,
-                    times, out,
+                    window, out,
                 )  # fmt: skip
                 periods += K * dP
                 tile += K * dl
@@ -504,7 +513,8 @@ def particle_loop(carry, i, budget, kp, times, out, obs, th):
     if status == RUNNING:
         return status
     if obs is not None:
-        out.final[i, :] = cs[:7]
+        for c in range(7):
+            out.final[i, c] = cs[c]
     if status != OK and status != STUCK_FOREVER:
         # a failed particle leaves NaN where it could not say where it was
         for kk in range(k, n_samples):
