@@ -245,7 +245,7 @@ def trajectory_features(
     """
 
     from bbdyn.core import features as core
-    from bbdyn.core.ensemble import run_features
+    from bbdyn.core.ensemble import RunTimes, run_features
 
     check_params(params)
     th = Thresholds() if thresholds is None else thresholds
@@ -283,13 +283,12 @@ def trajectory_features(
     carry = new_carry(states, 0, int(th.pmax))
     s_periods, s_phase = periods_phase(sample_times, params.f)
     end = np.array([v[0] for v in periods_phase(np.array([t]), params.f)])
+    times = RunTimes(end[0], end[1], p0, L, int(blocks), s_periods, s_phase)
+    feature_th = core.FeatureThresholds(th.tiny, th.k_tol, int(th.kmax), th.hist_width)
+    buffers = core.FeatureOut(**out)
 
     def advance(budget):
-        run_features(
-            carry, budget, params.kernel(), end, p0, L, int(blocks), th.tiny, th.k_tol,
-            int(th.kmax), th.hist_width, s_periods, s_phase, out["displacement"], out["counts"],
-            out["blocks"], out["hist"], out["kcount"], out["glob"], out["mismatch"], out["status"],
-        )  # fmt: skip
+        run_features(carry, budget, params.kernel(), times, feature_th, buffers)
 
     start = time.perf_counter()
     with numba_threads(threads):

@@ -467,10 +467,8 @@ def ensemble(
     sample_times = _sample_times(sample_times, t, "displacement" in observables)
     s_periods, s_phase = periods_phase(sample_times, params.f)
     end_periods, end_phase = periods_phase(np.array([t]), params.f)
-    end = np.array([end_periods[0], end_phase[0]])
+    times = core.RunTimes(end_periods[0], end_phase[0], run.p0, run.L, 1, s_periods, s_phase)
     rec_t = (0.0, t) if record_window is None else tuple(float(v) for v in record_window)
-    rp, rph = periods_phase(np.array(rec_t), params.f)
-    record_win = np.array([rp[0], rph[0], rp[1], rph[1]])
 
     flags = 0
     for name, flag in (
@@ -483,14 +481,15 @@ def ensemble(
             flags |= flag
     if fast_forward:
         flags |= core.OBS_FAST_FORWARD
+    obs = core.Observables(flags, *periods_phase(np.array(rec_t), params.f))
     cap = int(jump_capacity) if "jumps" in observables else 0
     n_rec = min(int(record_particles), n) if "record" in observables else 0
     rec_cap = int(record_capacity) if n_rec else 0
     lags = core.FF_LAGS if fast_forward else 0
     out, estimate = allocate(
         {
-            "disp": ((n, s_periods.size), float),
-            "acc": ((n, 1, 4), float),  # one block: the energy window
+            "displacement": ((n, s_periods.size), float),
+            "blocks": ((n, 1, 4), float),  # one block: the energy window
             "counts": ((n, core.CNT_WIDTH), np.int64),
             "jump_len": ((n, cap), np.int64),
             "jump_time": ((n, cap), float),
@@ -505,14 +504,11 @@ def ensemble(
     if initial is None:
         ics = initial_conditions(params, n, seed, box)
     carry = new_carry(kernel_states(params, ics), lags, 0)
-    disp, acc, counts, status = out["disp"], out["acc"], out["counts"], out["status"]
+    buffers = core.EnsembleOut(**out)
+    disp, acc, counts, status = buffers.displacement, buffers.blocks, buffers.counts, buffers.status
 
     def advance(budget):
-        core.run_ensemble(
-            carry, budget, params.kernel(), end, window, s_periods, s_phase, record_win, flags,
-            disp, acc, counts, out["jump_len"], out["jump_time"], out["record"], out["final"],
-            status,
-        )  # fmt: skip
+        core.run_ensemble(carry, budget, params.kernel(), times, obs, buffers)
 
     start = time.perf_counter()
     with numba_threads(threads) as used_threads:

@@ -142,17 +142,26 @@ def test_period_1_across_phase_zero(other_phase, periodic):
     the phase difference is taken modulo 2 pi.  Control: alternating with pi is not."""
     params = Params(f=60.0)
     th = Thresholds()
-    fpar = (th.tiny, th.k_tol, th.kmax, th.hist_width)
-    blocks = np.zeros((1, core.BF_WIDTH))
-    hist, kcount = np.zeros(int(round(10.0 / th.hist_width)) + 1), np.zeros(th.kmax + 1)
-    glob, mism, ring = np.zeros(core.G_WIDTH), np.zeros(th.pmax), np.zeros((th.pmax, 3))
+    kernel_th = core.FeatureThresholds(th.tiny, th.k_tol, th.kmax, th.hist_width)
+    out = core.FeatureOut(
+        displacement=np.zeros((1, 0)),
+        blocks=np.zeros((1, 1, core.BF_WIDTH)),
+        counts=np.zeros((1, 0), dtype=np.int64),
+        hist=np.zeros((1, int(round(10.0 / th.hist_width)) + 1)),
+        kcount=np.zeros((1, th.kmax + 1)),
+        glob=np.zeros((1, core.G_WIDTH)),
+        mismatch=np.zeros((1, th.pmax)),
+        status=np.zeros(1, dtype=np.int64),
+    )
+    ring, kp = np.zeros((th.pmax, 3)), params.kernel()
     n_ring = run = 0
     for c in range(40):
         phase = 1e-9 if c % 2 == 0 else other_phase
-        n_ring, run = core.feature_collision(
-            blocks, 0, hist, kcount, glob, mism, ring, n_ring, run, phase, 100.0, IMPACT, 1.0,
-            False, fpar, params.kernel(),
-        )  # fmt: skip
+        hit = core.Collision(
+            block=0, phase=phase, vyrel=100.0, kind=IMPACT, flight=1.0, jumped=False
+        )
+        n_ring, run = core.feature_collision(out, 0, ring, n_ring, run, hit, kernel_th, kp)
+    mism = out.mismatch[0]
     expected = 2e-9 / TWO_PI if periodic else 0.5 - 1e-9 / TWO_PI
     assert mism[0] == pytest.approx(expected, rel=1e-6)
     assert mism[1] == pytest.approx(0.0, abs=1e-15)  # lag 2 compares equal phases

@@ -1,4 +1,5 @@
-"""Numba kernels: plain functions on floats and arrays, no Python objects.
+"""Numba kernels: plain functions on floats, arrays and NamedTuples of them, no Python objects.
 
-Modules here import only numpy, math, numba and each other (tests/test_architecture.py).
+Modules here import only numpy, math, typing (NamedTuple), numba and each other
+(tests/test_architecture.py).
 """

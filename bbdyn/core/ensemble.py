@@ -3,10 +3,11 @@
 Each particle is integrated event by event with ``billiard_event`` from its own
 initial state up to ``t_end`` by one loop, ``particle_loop``, shared by the
 ensemble observables (``run_ensemble``) and the classification features
-(``run_features``, accumulators in ``features.py``); flags switch the
-accumulators on.  Between events the motion (a parabola, or riding the floor
-after a STICK) is known exactly, so every observable is evaluated or integrated
-in closed form (``observables.py``) on the way.  Nothing is stored
+(``run_features``, accumulators in ``features.py``); the ``OBS_*`` flags switch
+the ensemble's observables on, the feature thresholds the features.  Between
+events the motion (a parabola, or riding the floor after a STICK) is known
+exactly, so every observable is evaluated or integrated in closed form
+(``observables.py``) on the way.  Nothing is stored
 per event unless a collision record is asked for: memory is proportional to the
 ensemble (and to the number of sample times and buffer sizes), not to the run.
 
@@ -16,9 +17,8 @@ depend on the number of threads or on scheduling.
 
 Conventions (docs/model.md §3 and §4):
 
-* times are ``(periods, phase)``; the end of the run, the energy window
-  ``[window_periods[0], window_periods[1]]`` (whole periods, phase 0) and the
-  sample times are given that way;
+* times are ``(periods, phase)``; the end of the run, the window (whole periods,
+  phase 0) and the sample times are given that way (``RunTimes``);
 * a *collision* is an IMPACT or a STICK event (a STICK is the impact that starts a
   chattering sequence, summed in closed form by the event kernel); the trap
   sequence is read at collisions; RELEASE events leave from the STICK point;
@@ -26,18 +26,24 @@ Conventions (docs/model.md §3 and §4):
   kernel sums them in closed form only once their duration is below rounding
   of a period, so they carry no measurable weight;
 * event counts, stuck time and energy integrals cover the energy window; jumps
-  are recorded in it; the collision record covers ``record_window``.  The window
-  ``[p0, p0 + nb L]`` may be cut into ``nb`` blocks of ``L`` periods (features);
-  the ensemble uses one block.
+  are recorded in it; the collision record covers the record window
+  (``Observables``).  The window ``[p0, p0 + nb L]`` may be cut into ``nb`` blocks
+  of ``L`` periods (features); the ensemble uses one block.
+
+The kernels take named tuples: the loop state ``bbdyn.ensemble.Carry``, the times
+``RunTimes``, what to observe (``Observables``, ensemble) or the feature thresholds
+(``features.FeatureThresholds``), and the output arrays ``EnsembleOut`` (or
+``features.FeatureOut``), one row per particle.
 """
 
 import math
+from typing import NamedTuple
 
 import numpy as np
 from numba import njit, prange
 
 from bbdyn.core.billiard import billiard_event
-from bbdyn.core.features import block_of, feature_collision, feature_finish
+from bbdyn.core.features import Collision, block_of, feature_collision, feature_finish
 from bbdyn.core.floor import arc_root, floor_height_rel, normal_velocity, xi_from_arc_length
 from bbdyn.core.observables import (
     displacement,
@@ -55,10 +61,8 @@ OBS_DISPLACEMENT = 1
 OBS_ENERGY = 2
 OBS_JUMPS = 4
 OBS_RECORD = 8
-#: Classification features (``features.py``); set by ``run_features`` only.
-OBS_FEATURES = 16
 #: Fast-forward of exactly periodic stick-release cycles (``fast_forward``); ignored
-#: with features and for recorded particles.
+#: for recorded particles (and never made with features).
 OBS_FAST_FORWARD = 32
 #: Releases remembered to detect a cycle: lags 1 .. FF_LAGS.
 FF_LAGS = 8
@@ -84,6 +88,73 @@ RUNNING = -1
 C_TILE0, C_XI0, C_K, C_TRAP, C_DEP_P, C_DEP_PH = 7, 8, 9, 10, 11, 12
 C_NRING, C_RUN, C_NREL = 13, 14, 15
 CARRY_WIDTH = 16
+
+
+class Event(NamedTuple):
+    """A particle's state just after an event (the columns of ``final`` and of the record)."""
+
+    periods: float  # whole driving periods
+    phase: float  # w t mod 2 pi (rad)
+    tile: float
+    xi: float  # mm, on the tile's arc
+    vx: float  # mm/s
+    vyrel: float  # mm/s, relative to the floor
+    kind: int  # IMPACT, STICK or RELEASE (core.status)
+
+
+class Window(NamedTuple):
+    """The averaging window: ``nb`` blocks of ``L`` whole periods from ``p0`` (phase 0)."""
+
+    p0: float
+    L: float
+    nb: int
+
+
+class RunTimes(NamedTuple):
+    """When a run ends and when it measures (kernel argument); times as ``(periods, phase)``.
+
+    ``end_periods, end_phase``: the end of the run.  The window starts at ``p0`` whole
+    periods (phase 0) and is cut into ``nb`` blocks of ``L`` whole periods (the ensemble's
+    energy window is one block).  ``sample_periods, sample_phase``, shape (m,): the
+    displacement's sample times, sorted, within ``[0, end]`` (m = 0: none).
+    """
+
+    end_periods: float
+    end_phase: float
+    p0: float
+    L: float
+    nb: int
+    sample_periods: np.ndarray
+    sample_phase: np.ndarray
+
+
+class Observables(NamedTuple):
+    """What ``run_ensemble`` observes (kernel argument).
+
+    ``flags``: OR of the ``OBS_*`` flags.  ``record_periods, record_phase``, shape (2,):
+    start and end of the window of the collision record (with ``OBS_RECORD``).
+    """
+
+    flags: int
+    record_periods: np.ndarray
+    record_phase: np.ndarray
+
+
+class EnsembleOut(NamedTuple):
+    """Output arrays of ``run_ensemble``, row ``i`` for particle ``i`` (kernel argument).
+
+    Filled in place; all but ``status`` must start at zero.  ``counts`` stays a table
+    (``fast_forward`` differences whole rows), ``blocks`` one row per block.
+    """
+
+    displacement: np.ndarray  # (n, m): x(t_k) - x(0) (mm) at the sample times
+    blocks: np.ndarray  # (n, 1, 4): integrals over the energy window, columns ACC_*
+    counts: np.ndarray  # int64 (n, CNT_WIDTH): columns CNT_*
+    jump_len: np.ndarray  # int64 (n, cap): trap changes in the window (units of d)
+    jump_time: np.ndarray  # (n, cap): their times (s)
+    record: np.ndarray  # (n_rec, cap_rec, REC_WIDTH): collisions of the first n_rec particles
+    final: np.ndarray  # (n, 7): the last event before the end (``Event`` fields)
+    status: np.ndarray  # int64 (n,): RUNNING on entry to advance; then a core.status code
 
 
 @njit(cache=True)
@@ -123,43 +194,45 @@ def initial_states(ics, kp, states):
 
 
 @njit(cache=True)
-def accumulate_interval(acc, i, stuck, periods, phase, tile_xi_b, vx, vyrel, lo, hi, kp, energy):
-    """Add the integrals over ``[lo, hi]`` of the motion since the event at ``(periods, phase)``.
+def accumulate_interval(acc, j, ev, b, lo, hi, kp, energy):
+    """Add to row ``j`` of ``acc`` the integrals over ``[lo, hi]`` of the motion since ``ev``.
 
-    ``lo`` and ``hi`` are ``(periods, phase)`` pairs inside the interval; ``tile_xi_b`` is the
-    height ``b(xi)`` of the event point above the wedges (mm).
+    ``ev`` is an ``Event`` (a flight follows it, or the floor is ridden after a STICK);
+    ``lo`` and ``hi`` are ``(periods, phase)`` pairs inside the interval; ``b`` is the
+    height ``b(xi)`` of the event point above the wedges (mm).  Columns ``ACC_*``: the
+    stuck time (s) always, the energy integrals (kg mm^2/s) with ``energy``.
     """
     w, period = kp.w, kp.period
-    if stuck:
+    if ev.kind == STICK:
         dt = time_between(hi[0], hi[1], lo[0], lo[1], w, period)
-        acc[i, ACC_STUCK] += dt
+        acc[j, ACC_STUCK] += dt
         if energy:
-            I_Ey, I_pot = stuck_integrals(kp.A, w, kp.g, tile_xi_b, lo[1], dt)
-            acc[i, ACC_EY] += I_Ey
-            acc[i, ACC_POT] += I_pot
+            I_Ey, I_pot = stuck_integrals(kp.A, w, kp.g, b, lo[1], dt)
+            acc[j, ACC_EY] += I_Ey
+            acc[j, ACC_POT] += I_pot
         return
     if energy:
-        ta = time_between(lo[0], lo[1], periods, phase, w, period)
-        tb = time_between(hi[0], hi[1], periods, phase, w, period)
-        y0 = plate_height(kp.A, phase) + tile_xi_b
-        vy0 = vyrel + plate_velocity(kp.A, w, phase)
-        I_Ex, I_Ey, I_pot = flight_integrals(vx, vy0, y0, kp.g, ta, tb)
-        acc[i, ACC_EX] += I_Ex
-        acc[i, ACC_EY] += I_Ey
-        acc[i, ACC_POT] += I_pot
+        ta = time_between(lo[0], lo[1], ev.periods, ev.phase, w, period)
+        tb = time_between(hi[0], hi[1], ev.periods, ev.phase, w, period)
+        y0 = plate_height(kp.A, ev.phase) + b
+        vy0 = ev.vyrel + plate_velocity(kp.A, w, ev.phase)
+        I_Ex, I_Ey, I_pot = flight_integrals(ev.vx, vy0, y0, kp.g, ta, tb)
+        acc[j, ACC_EX] += I_Ex
+        acc[j, ACC_EY] += I_Ey
+        acc[j, ACC_POT] += I_pot
 
 
 @njit(cache=True)
-def integrate_blocks(acc, stuck, periods, phase, xi, vx, vyrel, lo, hi, win, kp, energy):
-    """Integrate the motion since the event at ``(periods, phase)`` over ``[lo, hi]``, per block.
+def integrate_blocks(acc, ev, hi, window, kp, energy):
+    """Integrate the motion since the event ``ev`` up to ``hi``, per block of the window.
 
-    ``lo`` and ``hi`` are ``(periods, phase)`` pairs; the part inside the window
-    ``win = (p0, L, nb)`` is cut at the block boundaries ``p0 + j L`` (phase 0) and
-    added to row ``j`` of ``acc`` by ``accumulate_interval``.
+    ``hi`` is a ``(periods, phase)`` pair; the part of ``[ev, hi]`` inside the ``window``
+    (a ``Window``) is cut at the block boundaries ``p0 + j L`` (phase 0) and added to row
+    ``j`` of ``acc`` (shape (nb, >= 4)) by ``accumulate_interval``.
     """
-    p0, L, nb = win
+    p0, L, nb = window.p0, window.L, window.nb
     p1 = p0 + nb * L
-    lo_p, lo_ph = lo
+    lo_p, lo_ph = ev.periods, ev.phase
     if is_before(lo_p, lo_ph, p0, 0.0):
         lo_p, lo_ph = p0, 0.0
     hi_p, hi_ph = hi
@@ -167,7 +240,7 @@ def integrate_blocks(acc, stuck, periods, phase, xi, vx, vyrel, lo, hi, win, kp,
         hi_p, hi_ph = p1, 0.0
     if not is_before(lo_p, lo_ph, hi_p, hi_ph):
         return
-    b = floor_height_rel(xi, kp) if energy else 0.0
+    b = floor_height_rel(ev.xi, kp) if energy else 0.0
     for j in range(block_of(lo_p, p0, L, nb), block_of(hi_p, p0, L, nb) + 1):
         a_p, a_ph = lo_p, lo_ph
         if is_before(a_p, a_ph, p0 + j * L, 0.0):
@@ -176,16 +249,12 @@ def integrate_blocks(acc, stuck, periods, phase, xi, vx, vyrel, lo, hi, win, kp,
         if is_before(p0 + (j + 1) * L, 0.0, z_p, z_ph):
             z_p, z_ph = p0 + (j + 1) * L, 0.0
         if is_before(a_p, a_ph, z_p, z_ph):
-            accumulate_interval(
-                acc, j, stuck, periods, phase, b, vx, vyrel, (a_p, a_ph), (z_p, z_ph), kp, energy
-            )
+            accumulate_interval(acc, j, ev, b, (a_p, a_ph), (z_p, z_ph), kp, energy)
 
 
 @njit(cache=True)
-def fast_forward(
-    rel, rel_acc, rel_cnt, n_rel, periods, phase, tile, xi, k, bound, win, acc, counts
-):
-    """Skip whole stick-release cycles once a release state repeats bitwise.
+def fast_forward(carry, i, n_rel, ev, k, bound, window, out):
+    """Skip whole stick-release cycles of particle ``i`` once a release state repeats bitwise.
 
     Exactness: a RELEASE leaves at ``phase = theta_r`` with ``vx = vyrel = 0`` relative to
     the floor, and ``billiard_event`` uses ``periods`` and ``tile`` only by adding whole
@@ -204,27 +273,34 @@ def fast_forward(
 
     Parameters
     ----------
-    rel : array, shape (FF_LAGS, 6)
-        Ring of releases ``phase, xi, periods, tile, zone, k`` (zone 0, 1, 2: before, in,
-        after the window; ``k`` the next sample index then).
-    rel_acc, rel_cnt : arrays, shapes (FF_LAGS, 4), (FF_LAGS, CNT_WIDTH)
-        Accumulators ``acc[0, :4]`` and ``counts`` at those releases.
+    carry : bbdyn.ensemble.Carry
+        Row ``i`` of its rings (updated in place): ``rel`` (FF_LAGS, 6), the releases
+        ``phase, xi, periods, tile, zone, k`` (zone 0, 1, 2: before, in, after the window;
+        ``k`` the next sample index then); ``rel_acc`` (FF_LAGS, 4) and ``rel_cnt``
+        (FF_LAGS, CNT_WIDTH), the particle's ``blocks[0, :4]`` and ``counts`` at those releases.
+    i : int
+        The particle.
     n_rel : int
         Releases pushed so far.
-    periods, phase, tile, xi : float
+    ev : Event
         This release.
     k : int
         Next sample index; ``bound`` its time ``(periods, phase)`` or the end.
-    win, acc, counts
-        As in ``particle_loop`` (``acc`` with one block).
+    window : Window
+        The window (one block).
+    out : EnsembleOut
+        Row ``i`` of ``blocks`` and ``counts`` is advanced by the skipped cycles.
 
     Returns
     -------
     (K, dP, dl, n_rel) : whole cycles skipped (0: none), cycle length (periods), tile shift,
     and the new ring count (reset to 0 after a skip).
     """
-    p0, L, nb = win
-    p1 = p0 + nb * L
+    rel, rel_acc, rel_cnt = carry.rel[i], carry.rel_acc[i], carry.rel_cnt[i]
+    acc, counts = out.blocks[i], out.counts[i]
+    periods, phase, tile, xi = ev.periods, ev.phase, ev.tile, ev.xi
+    p0 = window.p0
+    p1 = p0 + window.nb * window.L
     zone = (
         0.0
         if is_before(periods, phase, p0, 0.0)
@@ -283,54 +359,35 @@ def start_particles(states, carry_state):
 
 
 @njit(cache=True)
-def particle_loop(
-    cs, rel, rel_acc, rel_cnt, ring, budget, kp, end, win, sample_periods, sample_phase,
-    record_window, flags, fpar, acc, disp, counts, jump_len, jump_time, record, final, hist,
-    kcount, glob, mism,
-):  # fmt: skip
-    """Integrate one particle for at most ``budget`` events toward ``end``; feed the accumulators.
+def particle_loop(carry, i, budget, kp, times, out, obs, th):
+    """Integrate particle ``i`` for at most ``budget`` events toward the end; fill its outputs.
 
-    The particle goes on from its loop state ``cs`` (and rings ``rel, rel_acc, rel_cnt``,
-    ``ring``, a particle's rows of a
-    ``bbdyn.ensemble.Carry``) and leaves it there: calling again goes on
-    exactly where it stopped, so the numbers do not depend on how the run is cut.
+    The particle goes on from its loop state (row ``i`` of ``carry``: ``state``, columns
+    ``C_*``, and the rings) and leaves it there: calling again goes on exactly where it
+    stopped, so the numbers do not depend on how the run is cut.  Exactly one of ``obs``
+    and ``th`` is None: it is an ensemble run (``obs``) or a features run (``th``; with
+    displacement and energy, no fast-forward); numba compiles each kind without the
+    other's code.
 
     Parameters
     ----------
-    cs : array, shape (CARRY_WIDTH,)
-        Loop state, columns ``C_*`` (``start_particles``); updated in place.
-    rel, rel_acc, rel_cnt, ring : arrays
-        The particle's rings; updated in place.
+    carry : bbdyn.ensemble.Carry
+        Loop states; row ``i`` is updated in place.
+    i : int
+        The particle.
     budget : int
         Events (calls of ``billiard_event``) at most in this call.
     kp : KernelParams
-    end : array, shape (2,)
-        End of the run, ``(periods, phase)``.
-    win : tuple
-        ``(p0, L, nb)``: the window starts at ``p0`` whole periods and is cut into ``nb``
-        blocks of ``L`` periods.
-    sample_periods, sample_phase : arrays, shape (m,)
-        Sample times, sorted, within ``[start, end]``.
-    record_window : array, shape (4,)
-        ``(periods0, phase0, periods1, phase1)`` of the collision record.
-    flags : int
-        OR of the ``OBS_*`` flags.
-    fpar : tuple
-        Feature thresholds ``(tiny, k_tol, kmax, hist_width)`` (see ``feature_particle``).
-    acc : array, shape (nb, >= 4)
-        Block integrals, columns ``ACC_*`` (and ``features.BF_*`` with features).
-    disp : array, shape (m,)
-        ``x - x(0)`` (mm) at the sample times.
-    counts : int64 array, shape (CNT_WIDTH,)
-        Counts, columns ``CNT_*``.
-    jump_len, jump_time : arrays, shape (cap,)
-        Trap changes in the window (units of d) and their times (s).
-    record : array, shape (cap_rec, REC_WIDTH)
-        Collision record (written with ``OBS_RECORD``).
-    final : array, shape (7,)
-        The last event before ``end`` (written when the particle ends).
-    hist, kcount, glob, mism : arrays
-        Feature rows (see ``features.feature_collision``), written with ``OBS_FEATURES``.
+    times : RunTimes
+        End, window (``nb`` blocks) and sample times.
+    out : EnsembleOut or features.FeatureOut
+        Output arrays; row ``i`` is written (``displacement``, ``blocks``, ``counts``; with
+        ``obs`` the jumps, record and ``final``; with ``th`` the features).
+    obs : Observables or None
+        What an ensemble run observes; jumps are stored with ``OBS_JUMPS``, the record
+        with ``OBS_RECORD`` for the particles with a row in ``out.record``.
+    th : features.FeatureThresholds or None
+        The feature thresholds (see ``features.feature_collision``).
 
     Returns
     -------
@@ -338,6 +395,8 @@ def particle_loop(
         ``RUNNING`` if the budget ran out first, else ``OK`` or ``STUCK_FOREVER`` (normal
         ends) or the kernel's failure status.
     """
+    cs = carry.state[i]
+    acc, disp, counts = out.blocks[i], out.displacement[i], out.counts[i]
     periods, phase, tile, xi, vx, vyrel = cs[0], cs[1], cs[2], cs[3], cs[4], cs[5]
     kind = int(cs[6])
     tile0, xi0 = cs[C_TILE0], cs[C_XI0]
@@ -345,18 +404,22 @@ def particle_loop(
     trap = cs[C_TRAP]
     dep_periods, dep_phase = cs[C_DEP_P], cs[C_DEP_PH]  # last departure (features' flights)
     n_ring, run, n_rel = int(cs[C_NRING]), int(cs[C_RUN]), int(cs[C_NREL])
+    if obs is not None:
+        flags = obs.flags
+        do_record = (flags & OBS_RECORD) != 0 and i < out.record.shape[0]
+    else:
+        flags = OBS_DISPLACEMENT | OBS_ENERGY
+        do_record = False
     do_disp = (flags & OBS_DISPLACEMENT) != 0
     energy = (flags & OBS_ENERGY) != 0
     do_jumps = (flags & OBS_JUMPS) != 0
-    do_record = (flags & OBS_RECORD) != 0
-    do_feat = (flags & OBS_FEATURES) != 0
-    do_ff = (flags & OBS_FAST_FORWARD) != 0 and not do_feat and not do_record
-    p0, L, nb = win
+    do_ff = (flags & OBS_FAST_FORWARD) != 0 and not do_record
+    end_p, end_ph = times.end_periods, times.end_phase
+    window = Window(times.p0, times.L, times.nb)
+    p0, L, nb = window
     p1 = p0 + nb * L
-    rec0 = (record_window[0], record_window[1])
-    rec1 = (record_window[2], record_window[3])
+    sample_periods, sample_phase = times.sample_periods, times.sample_phase
     n_samples = sample_periods.shape[0]
-    cap = jump_len.shape[0]
     status = OK
     n_done = 0
     while True:
@@ -373,11 +436,11 @@ def particle_loop(
         else:
             n_periods, n_phase = nxt[0], nxt[1]
         counts[CNT_EVENTS] += 1
-        last = not is_before(n_periods, n_phase, end[0], end[1])
+        last = not is_before(n_periods, n_phase, end_p, end_ph)
         stuck = kind == STICK
-        seg_end = (end[0], end[1]) if last else (n_periods, n_phase)
+        seg_end = (end_p, end_ph) if last else (n_periods, n_phase)
         integrate_blocks(
-            acc, stuck, periods, phase, xi, vx, vyrel, (periods, phase), seg_end, win, kp, energy
+            acc, Event(periods, phase, tile, xi, vx, vyrel, kind), seg_end, window, kp, energy
         )
 
         # positions at the sample times inside this interval (all remaining ones if last)
@@ -399,12 +462,12 @@ def particle_loop(
         kind = nxt[6]
         if kind == RELEASE:
             if do_ff:
-                bound = (end[0], end[1])
-                if k < n_samples and is_before(sample_periods[k], sample_phase[k], end[0], end[1]):
+                bound = (end_p, end_ph)
+                if k < n_samples and is_before(sample_periods[k], sample_phase[k], end_p, end_ph):
                     bound = (sample_periods[k], sample_phase[k])
                 K, dP, dl, n_rel = fast_forward(
-                    rel, rel_acc, rel_cnt, n_rel, periods, phase, tile, xi, k, bound, win, acc,
-                    counts,
+                    carry, i, n_rel, Event(periods, phase, tile, xi, vx, vyrel, kind), k, bound,
+                    window, out,
                 )  # fmt: skip
                 periods += K * dP
                 tile += K * dl
@@ -423,72 +486,51 @@ def particle_loop(
                 counts[CNT_STICKS] += 1
             if jumped:
                 j = counts[CNT_JUMPS]
-                if do_jumps and j < cap:
-                    jump_len[j] = int(new_trap - trap)
-                    jump_time[j] = periods * kp.period + phase / kp.w
+                if obs is not None:
+                    if do_jumps and j < out.jump_len.shape[1]:
+                        out.jump_len[i, j] = int(new_trap - trap)
+                        out.jump_time[i, j] = periods * kp.period + phase / kp.w
                 counts[CNT_JUMPS] = j + 1
-            if do_feat:
-                n_ring, run = feature_collision(
-                    acc, block_of(periods, p0, L, nb), hist, kcount, glob, mism, ring, n_ring,
-                    run, phase, vyrel, kind, flight, jumped, fpar, kp,
-                )  # fmt: skip
+            if th is not None:
+                hit = Collision(block_of(periods, p0, L, nb), phase, vyrel, kind, flight, jumped)
+                n_ring, run = feature_collision(out, i, carry.ring[i], n_ring, run, hit, th, kp)
         trap = new_trap
-        if (
-            do_record
-            and not is_before(periods, phase, rec0[0], rec0[1])
-            and not is_before(rec1[0], rec1[1], periods, phase)
-        ):
-            r = counts[CNT_RECORD]
-            if r < record.shape[0]:
-                record[r, 0] = periods
-                record[r, 1] = phase
-                record[r, 2] = tile
-                record[r, 3] = xi
-                record[r, 4] = vx
-                record[r, 5] = vyrel
-                record[r, 6] = kind
-            counts[CNT_RECORD] = r + 1
+        if obs is not None:
+            if (
+                do_record
+                and not is_before(periods, phase, obs.record_periods[0], obs.record_phase[0])
+                and not is_before(obs.record_periods[1], obs.record_phase[1], periods, phase)
+            ):
+                r = counts[CNT_RECORD]
+                if r < out.record.shape[1]:
+                    rec = out.record[i, r]
+                    rec[0], rec[1], rec[2], rec[3] = periods, phase, tile, xi
+                    rec[4], rec[5], rec[6] = vx, vyrel, kind
+                counts[CNT_RECORD] = r + 1
     cs[0], cs[1], cs[2], cs[3], cs[4], cs[5], cs[6] = periods, phase, tile, xi, vx, vyrel, kind
     cs[C_K], cs[C_TRAP], cs[C_DEP_P], cs[C_DEP_PH] = k, trap, dep_periods, dep_phase
     cs[C_NRING], cs[C_RUN], cs[C_NREL] = n_ring, run, n_rel
     if status == RUNNING:
         return status
-    for c in range(7):
-        final[c] = cs[c]
+    if obs is not None:
+        for c in range(7):
+            out.final[i, c] = cs[c]
     if status != OK and status != STUCK_FOREVER:
         # a failed particle leaves NaN where it could not say where it was
         for kk in range(k, n_samples):
             disp[kk] = math.nan
         return status
-    if do_feat:
-        feature_finish(glob, mism, n_ring, run)
+    if th is not None:
+        feature_finish(out.glob[i], out.mismatch[i], n_ring, run)
     return status
 
 
 @njit(cache=True, parallel=True)
-def run_ensemble(
-    carry,
-    budget,
-    kp,
-    end,
-    window_periods,
-    sample_periods,
-    sample_phase,
-    record_window,
-    flags,
-    disp,
-    acc,
-    counts,
-    jump_len,
-    jump_time,
-    record,
-    final,
-    status,
-):
+def run_ensemble(carry, budget, kp, times, obs, out):
     """Advance every running particle by at most ``budget`` events (prange over particles).
 
-    Call it again while some ``status`` is ``RUNNING``: the outputs are filled in place
-    and do not depend on ``budget`` (see ``bbdyn.ensemble.Carry``).
+    Call it again while some ``out.status`` is ``RUNNING``: the outputs are filled in
+    place and do not depend on ``budget`` (see ``bbdyn.ensemble.Carry``).
 
     Parameters
     ----------
@@ -497,53 +539,30 @@ def run_ensemble(
         ``pmax`` 0).
     budget : int
         Events per particle at most in this call (>= 1).
-    kp, end, sample_periods, sample_phase, record_window, flags
-        As in ``particle_loop``.
-    window_periods : array, shape (2,)
-        Energy window in whole periods ``[p0, p1]`` (one block).
-    disp : array, shape (n, m) or (n, 0)
-        ``x(t_k) - x(0)`` (mm) at the sample times.
-    acc : array, shape (n, 1, 4)
-        Integrals over the energy window, columns ``ACC_*``; must start at zero.
-    counts : int64 array, shape (n, CNT_WIDTH)
-        Counts, columns ``CNT_*``; must start at zero.  ``CNT_JUMPS`` may exceed the
-        jump capacity and ``CNT_RECORD`` the record capacity (counted, not stored).
-    jump_len : int64 array, shape (n, cap); jump_time : array, shape (n, cap)
-        Trap changes (units of d) and their times (s).
-    record : array, shape (n_rec, cap_rec, 7)
-        Collision record of the first ``n_rec`` particles inside ``record_window``.
-    final : array, shape (n, 7)
-        The last event before ``end`` (the state the run would continue from).
-    status : int64 array, shape (n,)
-        Per-particle status: ``RUNNING`` on entry for the particles to advance; on return
-        ``RUNNING``, ``OK``, ``STUCK_FOREVER`` or a failure.
+    kp : KernelParams
+    times : RunTimes
+        End, energy window (one block: ``nb = 1``, ``L`` its length) and sample times.
+    obs : Observables
+        Flags and record window.
+    out : EnsembleOut
+        Outputs.  ``counts[:, CNT_JUMPS]`` may exceed the jump capacity and
+        ``counts[:, CNT_RECORD]`` the record capacity (counted, not stored).  ``status``:
+        ``RUNNING`` on entry for the particles to advance; on return ``RUNNING``, ``OK``,
+        ``STUCK_FOREVER`` or a failure.
     """
-    win = (window_periods[0], window_periods[1] - window_periods[0], 1)
-    fpar = (0.0, 0.0, 0, 1.0)
-    no_record = np.zeros((0, REC_WIDTH))
-    none = np.zeros(0)
+    status = out.status  # a local: prange dropped the stores through ``out.status[i]``
     for i in prange(status.shape[0]):
         if status[i] != RUNNING:
             continue
-        in_record = i < record.shape[0]
-        status[i] = particle_loop(
-            carry.state[i], carry.rel[i], carry.rel_acc[i], carry.rel_cnt[i], carry.ring[i],
-            budget, kp, end, win, sample_periods, sample_phase, record_window,
-            flags if in_record else flags & ~OBS_RECORD, fpar, acc[i], disp[i], counts[i],
-            jump_len[i], jump_time[i], record[i] if in_record else no_record, final[i],
-            none, none, none, none,
-        )  # fmt: skip
+        status[i] = particle_loop(carry, i, budget, kp, times, out, obs, None)
 
 
 @njit(cache=True, parallel=True)
-def run_features(
-    carry, budget, kp, end, p0, L, nb, tiny, k_tol, kmax, hist_width, sample_periods,
-    sample_phase, disp, counts, blocks, hist, kcount, glob, mism, status,
-):  # fmt: skip
+def run_features(carry, budget, kp, times, th, out):
     """Advance every running particle by at most ``budget`` events, filling the features.
 
-    As ``run_ensemble`` (call again while some ``status`` is ``RUNNING``; the numbers do
-    not depend on ``budget`` nor on the number of threads); each particle writes only
+    As ``run_ensemble`` (call again while some ``out.status`` is ``RUNNING``; the numbers
+    do not depend on ``budget`` nor on the number of threads); each particle writes only
     its own rows.
 
     Parameters
@@ -554,39 +573,15 @@ def run_features(
     budget : int
         Events per particle at most in this call (>= 1).
     kp : KernelParams
-    end : array, shape (2,)
-        End of the run ``(periods, phase)``; at or after ``p0 + nb L`` periods.
-    p0, L : float
-        Window start and block length (whole periods).
-    nb : int
-        Number of blocks.
-    tiny, k_tol : float
-        Tiny-hop bound and locking tolerance (in periods).
-    kmax : int
-        Largest locking number counted.
-    hist_width : float
-        Width (periods) of the flight-time histogram bins.
-    sample_periods, sample_phase : arrays, shape (m,)
-        Sample times of the displacement, sorted, within ``[0, end]``.
-    disp : array, shape (n, m)
-        ``x(t_k) - x(0)`` (mm) at the sample times.
-    counts : int64 array, shape (n, CNT_WIDTH)
-        The loop's counts; zero on entry.
-    blocks, hist, kcount, glob, mism : arrays
-        Outputs (``features.py``), shapes (n, nb, BF_WIDTH), (n, nbins), (n, kmax + 1),
-        (n, G_WIDTH), (n, pmax); zero on entry.
-    status : int64 array, shape (n,)
-        As in ``run_ensemble``.
+    times : RunTimes
+        End (at or after ``p0 + nb L`` periods), window of ``nb`` blocks of ``L`` periods
+        and the displacement's sample times.
+    th : features.FeatureThresholds
+    out : features.FeatureOut
+        Outputs, zero on entry (``status`` as in ``run_ensemble``).
     """
-    no_record = np.zeros(4)
-    fpar = (tiny, k_tol, kmax, hist_width)
-    flags = OBS_DISPLACEMENT | OBS_ENERGY | OBS_FEATURES
+    status = out.status  # a local: prange dropped the stores through ``out.status[i]``
     for i in prange(status.shape[0]):
         if status[i] != RUNNING:
             continue
-        status[i] = particle_loop(
-            carry.state[i], carry.rel[i], carry.rel_acc[i], carry.rel_cnt[i], carry.ring[i],
-            budget, kp, end, (p0, L, nb), sample_periods, sample_phase, no_record, flags, fpar,
-            blocks[i], disp[i], counts[i], np.zeros(0, dtype=np.int64), np.zeros(0),
-            np.zeros((0, REC_WIDTH)), np.zeros(7), hist[i], kcount[i], glob[i], mism[i],
-        )  # fmt: skip
+        status[i] = particle_loop(carry, i, budget, kp, times, out, None, th)

@@ -3,7 +3,8 @@
 The particles are run by the one event loop of ``core/ensemble.py``
 (``particle_loop``, driven here through ``core.ensemble.run_features``); this
 module holds the feature accumulators it calls at each collision in the window
-(``feature_collision``) and at the end (``feature_finish``).  The features are
+(``feature_collision``) and at the end (``feature_finish``), the thresholds
+(``FeatureThresholds``) and the output arrays (``FeatureOut``).  The features are
 accumulated on the way, after a transient, so memory is proportional to the
 ensemble, not to the run.  The loop integrates energies and stuck time per block
 with ``core.ensemble.accumulate_interval`` (exact over flights and stuck
@@ -35,7 +36,9 @@ and a *tiny hop* when ``T_flight / T < tiny``.
 """
 
 import math
+from typing import NamedTuple
 
+import numpy as np
 from numba import njit
 
 from bbdyn.core.plate import TWO_PI
@@ -49,6 +52,44 @@ G_COS, G_SIN, G_TF, G_TF2, G_RUNS, G_RUNMAX = 0, 1, 2, 3, 4, 5
 G_WIDTH = 6
 
 
+class FeatureThresholds(NamedTuple):
+    """Feature thresholds (kernel argument; ``bbdyn.classify.Thresholds`` holds them)."""
+
+    tiny: float  # a flight shorter than tiny periods is a tiny hop
+    k_tol: float  # a flight is locked to k when |T_flight / T - k| <= k_tol
+    kmax: int  # largest locking number counted
+    hist_width: float  # width (periods) of the flight-time histogram bins
+
+
+class FeatureOut(NamedTuple):
+    """Output arrays of ``core.ensemble.run_features``, row ``i`` for particle ``i``.
+
+    Filled in place; all but ``status`` must start at zero.  ``blocks`` has one row per
+    block of the window; ``glob`` and ``counts`` are tables of sums (columns ``G_*`` and
+    ``core.ensemble.CNT_*``).
+    """
+
+    displacement: np.ndarray  # (n, m): x(t_k) - x(0) (mm) at the sample times
+    blocks: np.ndarray  # (n, nb, BF_WIDTH): block sums, columns BF_*
+    counts: np.ndarray  # int64 (n, CNT_WIDTH): the loop's counts
+    hist: np.ndarray  # (n, nbins): flight-time histogram
+    kcount: np.ndarray  # (n, kmax + 1): flights locked to k
+    glob: np.ndarray  # (n, G_WIDTH): sums over the window, columns G_*
+    mismatch: np.ndarray  # (n, pmax): impact-sequence mismatch at lag p (index p - 1)
+    status: np.ndarray  # int64 (n,): as in run_ensemble
+
+
+class Collision(NamedTuple):
+    """One collision in the window, as the features see it."""
+
+    block: int  # block of the window it falls in
+    phase: float  # impact phase (rad)
+    vyrel: float  # relative vertical velocity after it (mm/s)
+    kind: int  # IMPACT or STICK
+    flight: float  # flight time before it (periods), from the last departure
+    jumped: bool  # the trap changed at this collision
+
+
 @njit(cache=True)
 def block_of(periods, p0, L, nb):
     """Block index (0..nb-1) of a time with ``periods`` whole periods (clamped)."""
@@ -57,33 +98,23 @@ def block_of(periods, p0, L, nb):
 
 
 @njit(cache=True)
-def feature_collision(
-    blocks, j, hist, kcount, glob, mism, ring, n_ring, run, phase, vyrel, kind, flight, jumped,
-    fpar, kp,
-):  # fmt: skip
-    """Add one collision in the window (block ``j``) to the features of one particle.
+def feature_collision(out, i, ring, n_ring, run, hit, th, kp):
+    """Add one collision in the window to the features of particle ``i``.
 
     Parameters
     ----------
-    blocks : array, shape (nb, BF_WIDTH)
-        The particle's block sums.
-    j : int
-        Block of the collision.
-    hist, kcount, glob, mism : arrays, shapes (nbins,), (kmax + 1,), (G_WIDTH,), (pmax,)
-        The particle's rows of the feature arrays.
+    out : FeatureOut
+        Row ``i`` of ``blocks``, ``hist``, ``kcount``, ``glob`` and ``mismatch`` is updated.
+    i : int
+        The particle.
     ring : array, shape (pmax, 3)
-        The last ``pmax`` collisions ``(phase, vyrel, kind)``, collision ``c`` in slot
-        ``c % pmax``; ``n_ring`` collisions seen so far.
+        The particle's last ``pmax`` collisions ``(phase, vyrel, kind)``, collision ``c`` in
+        slot ``c % pmax``; ``n_ring`` collisions seen so far.
     run : int
         Length of the current run of tiny hops.
-    phase, vyrel, kind : float, float, int
-        The collision: impact phase (rad), relative vertical velocity after it (mm/s), kind.
-    flight : float
-        Flight time before it (periods), from the last departure.
-    jumped : bool
-        The trap changed at this collision.
-    fpar : tuple
-        ``(tiny, k_tol, kmax, hist_width)``, see ``feature_particle``.
+    hit : Collision
+        The collision.
+    th : FeatureThresholds
     kp : KernelParams
 
     Returns
@@ -91,22 +122,24 @@ def feature_collision(
     (n_ring, run) : int, int
         Updated ring count and tiny-hop run length.
     """
-    tiny, k_tol, kmax, hist_width = fpar
+    blocks, hist, kcount = out.blocks[i], out.hist[i], out.kcount[i]
+    glob, mism = out.glob[i], out.mismatch[i]
+    j, phase, vyrel, kind, flight = hit.block, hit.phase, hit.vyrel, hit.kind, hit.flight
     nbins = hist.shape[0]
     pmax = mism.shape[0]
     blocks[j, BF_COLL] += 1.0
-    if jumped:
+    if hit.jumped:
         blocks[j, BF_JUMPS] += 1.0
     glob[G_COS] += math.cos(phase)
     glob[G_SIN] += math.sin(phase)
     glob[G_TF] += flight
     glob[G_TF2] += flight * flight
-    hist[min(int(flight / hist_width), nbins - 1)] += 1.0
+    hist[min(int(flight / th.hist_width), nbins - 1)] += 1.0
     k = int(math.floor(flight + 0.5))
-    if 1 <= k <= kmax and abs(flight - k) <= k_tol:
+    if 1 <= k <= th.kmax and abs(flight - k) <= th.k_tol:
         kcount[k] += 1.0
         blocks[j, BF_LOCKED] += 1.0
-    if flight < tiny:
+    if flight < th.tiny:
         blocks[j, BF_TINY] += 1.0
         run += 1
     elif run > 0:

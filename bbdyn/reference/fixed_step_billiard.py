@@ -31,11 +31,11 @@ import numpy as np
 from numba import njit, prange
 
 from bbdyn.core.billiard import segment_gap, snap_to_wedge, tile_offset, wedge_reflect
-from bbdyn.core.ensemble import ACC_EX, ACC_EY, ACC_POT, accumulate_interval
+from bbdyn.core.ensemble import ACC_EX, ACC_EY, ACC_POT, Event, accumulate_interval
 from bbdyn.core.floor import arc_root, floor_height_rel, from_normal_velocity, normal_velocity
 from bbdyn.core.observables import displacement, is_before, time_between
 from bbdyn.core.plate import advance_phase
-from bbdyn.core.status import NON_FINITE, OK, ROOT_NOT_CONVERGED
+from bbdyn.core.status import IMPACT, NON_FINITE, OK, ROOT_NOT_CONVERGED
 
 __all__ = [
     "fixed_step_billiard_flight",
@@ -181,7 +181,7 @@ def fixed_step_billiard_one_step(starts, dt, dt_min, kp, out_tau, out_k, out_xi,
 def _fixed_particle(i, state, dt, dt_min, kp, end, window, s_periods, s_phase, disp, acc, counts):
     """One particle of ``fixed_step_ensemble`` up to ``end``; rows ``i`` written in place.
 
-    Same bookkeeping as ``bbdyn.core.ensemble.run_particle`` (energy integrals over
+    Same bookkeeping as ``bbdyn.core.ensemble.particle_loop`` (energy integrals over
     whole periods of the window, displacement at the sample times) with flights only.
     """
     periods, phase, tile, xi, vx, vyrel = state[0], state[1], state[2], state[3], state[4], state[5]
@@ -208,7 +208,8 @@ def _fixed_particle(i, state, dt, dt_min, kp, end, window, s_periods, s_phase, d
             hi = w1
         if is_before(lo[0], lo[1], hi[0], hi[1]):
             b = floor_height_rel(xi, kp)
-            accumulate_interval(acc, i, False, periods, phase, b, vx, vyrel, lo, hi, kp, True)
+            flight = Event(periods, phase, tile, xi, vx, vyrel, IMPACT)
+            accumulate_interval(acc, i, flight, b, lo, hi, kp, True)
         while k < n_samples and (last or is_before(s_periods[k], s_phase[k], nxt[0], nxt[1])):
             x = xi + vx * time_between(s_periods[k], s_phase[k], periods, phase, kp.w, kp.period)
             disp[i, k] = displacement(tile, x, tile0, xi0, kp.d)
