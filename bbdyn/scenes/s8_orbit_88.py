@@ -23,8 +23,8 @@ from bbdyn.poincare import (
 )
 
 TITLE = "Orbit at 88.4 Hz: trajectory piece and (y, vy+) at collisions, regions in visiting order"
-QUICK = {"f": 88.4, "n": 20, "transient": 10.0, "n_events": 400, "piece_events": 13, "bins": 16}
-FULL = {"f": 88.4, "n": 20, "transient": 40.0, "n_events": 5000, "piece_events": 13, "bins": 16}
+QUICK = {"f": 88.4, "n": 20, "transient": 10.0, "n_events": 400, "piece_events": 13, "bins": 24}
+FULL = {"f": 88.4, "n": 20, "transient": 40.0, "n_events": 5000, "piece_events": 13, "bins": 24}
 
 #: Regions with fewer collisions than this fraction are drawn but not numbered.
 LABEL_MIN_FRACTION = 0.02
