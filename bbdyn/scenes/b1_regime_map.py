@@ -27,7 +27,7 @@ QUICK = {
     "workers": None,
     "scan_dir": None,
 }
-#: The setting of docs/figures/B1_medium.png: 91 frequencies (~0.5 Hz), 200 particles x 50 s.
+#: A cheaper map: 91 frequencies (~0.5 Hz), 200 particles x 50 s (docs/figures has FULL).
 MEDIUM = {"f_min": 49.8, "f_max": 95.0, "n_f": 91, "n": 200, "t": 50.0, "workers": None,
           "scan_dir": None}  # fmt: skip
 FULL = {"f_min": 49.8, "f_max": 95.0, "n_f": 227, "n": 1000, "t": 50.0, "workers": None,

@@ -35,7 +35,7 @@ DOCS_FIGURES = {
     "S8": ("quick", "S8"),
     "S9": ("full", "S9_full"),
     "S10": ("full", "S10_full"),
-    "B1": ("medium", "B1_medium"),
+    "B1": ("full", "B1_full"),
     "B3": ("medium", "B3_statcost"),
     "B4": ("full", "B4_full"),
     "B5": ("medium", "B5_medium"),
