@@ -214,12 +214,6 @@ def test_reproduce_docs_needs_the_table_markers(tmp_path):
         reproduce_docs(only=["S2"], root=tmp_path)
 
 
-#: docs figures made before docs/figures kept their numbers (.npz) beside them, and why
-NUMBERS_NOT_KEPT = {
-    "B6_medium": "made at 7e900aa; `bbdyn reproduce --docs --only B6` (about 15 min) remakes it",
-}
-
-
 def test_docs_figures_record_where_they_came_from():
     """Every figure of docs/figures has its JSON; a regenerated one carries the same
     provenance in its PNG, from a clean tree at a commit of this history; a pre-provenance
@@ -235,8 +229,7 @@ def test_docs_figures_record_where_they_came_from():
     for name, r in records.items():
         if r["pre"] is None:
             saved = json.loads((figures / f"{name}.json").read_text())["meta"]["provenance"]
-            if name not in NUMBERS_NOT_KEPT:  # its numbers are there (checksum), to redraw
-                load_result(figures / f"{name}.json")
+            load_result(figures / f"{name}.json")  # its numbers are there (checksum), to redraw
             in_png = read_png_provenance(figures / f"{name}.png")
             # a figure redrawn from its data names the code that drew it: clean, in history
             drawn_by = in_png.pop("drawn_by", {"commit": r["commit"], "dirty": False})
