@@ -193,7 +193,9 @@ def initial_states(ics, kp, states):
     return first_bad
 
 
-@njit(cache=True)
+# Inlined into the event loop, as integrate_blocks: called with the Event tuple, the two
+# calls cost about 2 % of the ensemble's speed (python benchmarks/kernel_buffers.py).
+@njit(cache=True, inline="always")
 def accumulate_interval(acc, j, ev, b, lo, hi, kp, energy):
     """Add to row ``j`` of ``acc`` the integrals over ``[lo, hi]`` of the motion since ``ev``.
 
@@ -222,7 +224,8 @@ def accumulate_interval(acc, j, ev, b, lo, hi, kp, energy):
         acc[j, ACC_POT] += I_pot
 
 
-@njit(cache=True)
+# Inlined into the event loop (see accumulate_interval).
+@njit(cache=True, inline="always")
 def integrate_blocks(acc, ev, hi, window, kp, energy):
     """Integrate the motion since the event ``ev`` up to ``hi``, per block of the window.
 
