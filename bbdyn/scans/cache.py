@@ -15,7 +15,8 @@ import json
 import os
 from pathlib import Path
 
-__all__ = ["FAMILIES", "scene_folder", "diffusion_scan", "gk_scene_scan"]
+__all__ = ["FAMILIES", "scene_folder", "setting_grid", "grid_cpu_estimate", "diffusion_scan",
+           "gk_scene_scan"]  # fmt: skip
 
 #: scan family -> the setting keys that define its scan (with the seed and the version)
 FAMILIES = {
@@ -45,19 +46,34 @@ def scene_folder(family: str, settings: dict, seed: int, out_dir=None) -> Path:
     return Path(out_dir) / "scans" / f"{family}_{digest}"
 
 
+def setting_grid(settings: dict):
+    """The frequencies (Hz) of a grid setting: ``frequency_grid(f_start, f_stop, f_step)``."""
+    from bbdyn.scans.frequency import frequency_grid
+
+    return frequency_grid(settings["f_start"], settings["f_stop"], settings["f_step"])
+
+
+def grid_cpu_estimate(settings: dict) -> float:
+    """Upper estimate of the CPU time (s) of the scan of a grid setting (``n`` particles for
+    ``t`` s at every frequency of ``setting_grid``; ``bbdyn.scans.frequency.cpu_estimate``)."""
+    from bbdyn.scans.frequency import cpu_estimate
+
+    return cpu_estimate(setting_grid(settings).sum(), settings["n"], settings["t"])
+
+
 def diffusion_scan(settings: dict, seed: int, out_dir=None, progress=False):
     """The frequency scan of an S3-S5 setting (``bbdyn.scans.frequency.frequency_scan`` on
     ``frequency_grid(f_start, f_stop, f_step)``): loaded if finished, else computed or
     resumed (``progress`` as in ``run_scan``).  With an explicit ``settings["scan_dir"]`` the
     scan is only loaded, and with ``settings["partial"]`` true its finished points are enough."""
-    from bbdyn.scans.frequency import frequency_grid, frequency_scan
+    from bbdyn.scans.frequency import frequency_scan
     from bbdyn.scans.runner import load_scan
 
     folder = scene_folder("diffusion", settings, seed, out_dir)
     if settings.get("scan_dir"):
         return load_scan(folder, partial=bool(settings.get("partial", False)))
     return frequency_scan(
-        frequency_grid(settings["f_start"], settings["f_stop"], settings["f_step"]),
+        setting_grid(settings),
         out_dir=folder,
         seed=seed,
         n=settings["n"],
@@ -72,11 +88,10 @@ def gk_scene_scan(settings: dict, seed: int, out_dir=None, progress=False):
     """The Green-Kubo scan of an S9/S10 setting (``bbdyn.scans.green_kubo.gk_scan`` on
     ``frequency_grid(f_start, f_stop, f_step)``), computed or resumed;
     ``settings["workers"]`` optional; ``progress`` as in ``run_scan``."""
-    from bbdyn.scans.frequency import frequency_grid
     from bbdyn.scans.green_kubo import gk_scan
 
     return gk_scan(
-        frequency_grid(settings["f_start"], settings["f_stop"], settings["f_step"]),
+        setting_grid(settings),
         out_dir=scene_folder("gk", settings, seed, out_dir),
         seed=seed,
         n=settings["n"],

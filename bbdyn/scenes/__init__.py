@@ -80,16 +80,21 @@ def scene_module(scene_id: str):
     return importlib.import_module(f"bbdyn.scenes.{SCENES[key]}")
 
 
+def setting_names(scene_id: str) -> list[str]:
+    """The settings (``quick``, ``medium``, ``full``) that scene ``scene_id`` defines."""
+    module = scene_module(scene_id)
+    return [name for name, attr in SETTINGS.items() if hasattr(module, attr)]
+
+
 def scene_settings(scene_id: str, setting: str) -> dict:
     """A copy of the values of ``setting`` (``quick``, ``medium`` or ``full``) of a scene;
     ValueError naming the settings the scene has."""
-    module = scene_module(scene_id)
-    have = [name for name, attr in SETTINGS.items() if hasattr(module, attr)]
+    have = setting_names(scene_id)
     if setting not in have:
         raise ValueError(
             f"scene {scene_id.upper()} has no setting {setting!r}; it has: {', '.join(have)}"
         )
-    return dict(getattr(module, SETTINGS[setting]))
+    return dict(getattr(scene_module(scene_id), SETTINGS[setting]))
 
 
 def call_compute(module, settings: dict, seed: int, out_dir: str | Path, progress=False):

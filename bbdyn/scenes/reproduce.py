@@ -16,11 +16,11 @@ from pathlib import Path
 
 from bbdyn.scenes import (
     SCENES,
-    SETTINGS,
     SOURCE_ROOT,
     run_scene,
     scene_module,
     scene_settings,
+    setting_names,
 )
 
 #: scene id -> (setting, file name without suffix) of its figure in docs/figures
@@ -89,7 +89,7 @@ def cost_lines(ids: Iterable[str], setting: str, root: str | Path = SOURCE_ROOT)
         line = f"{scene_id}: at most {rough_duration(module.cost(settings))} of CPU time"
         same = measured.get((scene_id, json.dumps(settings, sort_keys=True)))
         if same is not None:
-            line += (f"; measured {rough_duration(float(same['run'].split()[0]))} wall for "
+            line += (f"; measured {rough_duration(same['run_s'])} wall for "
                      f"docs/figures/{same['name']} (commit {commit_text(same)})")  # fmt: skip
         lines.append(line)
     return lines
@@ -112,7 +112,7 @@ def reproduce(
     to the scans (as in ``bbdyn.scans.runner.run_scan``)."""
     out_dir = Path(out_dir)
     if only is None:
-        ids = [s for s in SCENES if hasattr(scene_module(s), SETTINGS[setting])]
+        ids = [s for s in SCENES if setting in setting_names(s)]
     else:
         ids = _check_ids(only, SCENES)
     for scene_id in ids:
@@ -176,8 +176,9 @@ def figure_records(folder: str | Path) -> list[dict]:
     """Provenance of every scene saved in ``folder`` (``*.json``), in ``SCENES`` order.
 
     Each record holds ``name`` (file stem), ``scene``, ``setting``, ``settings``, ``seed``,
-    ``commit``, ``dirty``, ``run`` (run time as text), ``key_numbers`` and ``pre``: the
-    sidecar's note for a figure made before provenance was recorded, else None.
+    ``commit``, ``dirty``, ``run_s`` and ``run`` (run time in s, and as text), ``key_numbers``
+    and ``pre``: the sidecar's note for a figure made before provenance was recorded, else
+    None.
     """
     records = []
     for path in Path(folder).glob("*.json"):
@@ -195,6 +196,7 @@ def figure_records(folder: str | Path) -> list[dict]:
                     "seed": prov["seed"],
                     "commit": prov["commit"],
                     "dirty": prov["dirty"],
+                    "run_s": prov["run_s"],
                     "run": f"{prov['run_s']:.1f} s",
                     "key_numbers": data["meta"].get("key_numbers", {}),
                     "pre": None,

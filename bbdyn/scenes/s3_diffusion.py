@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from bbdyn.scans.frequency import cpu_estimate, frequency_grid
+from bbdyn.scans.cache import grid_cpu_estimate
 from bbdyn.scenes import figure_axes
 from bbdyn.scenes.frequency_scene import FULL, QUICK, FrequencyScanScene, scan_scene
 
@@ -28,8 +28,7 @@ def compute(settings: dict, seed: int = 0, out_dir=None, progress=False) -> Freq
 
 def cost(settings: dict) -> float:
     """Upper estimate of the CPU time (s) of the scan of ``settings`` (shared with S4, S5)."""
-    grid = frequency_grid(settings["f_start"], settings["f_stop"], settings["f_step"])
-    return cpu_estimate(grid.sum(), settings["n"], settings["t"])
+    return grid_cpu_estimate(settings)
 
 
 def key_numbers(scene: FrequencyScanScene) -> dict:

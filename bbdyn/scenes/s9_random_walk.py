@@ -52,10 +52,9 @@ def scan_points(settings: dict, seed: int, out_dir, *, keys, progress=False):
 
 def cost(settings: dict) -> float:
     """Upper estimate of the CPU time (s) of the scan of ``settings`` (shared with S10)."""
-    from bbdyn.scans.frequency import cpu_estimate, frequency_grid
+    from bbdyn.scans.cache import grid_cpu_estimate
 
-    grid = frequency_grid(settings["f_start"], settings["f_stop"], settings["f_step"])
-    return cpu_estimate(grid.sum(), settings["n"], settings["t"])
+    return grid_cpu_estimate(settings)
 
 
 def compute(settings: dict, seed: int = 0, out_dir=None, progress=False) -> SceneS9Result:
