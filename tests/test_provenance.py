@@ -23,6 +23,7 @@ from bbdyn.scenes import (
 )
 from bbdyn.scenes.reproduce import (
     DOCS_FIGURES,
+    DOCS_OVERRIDES,
     PRE_PROVENANCE,
     TABLE_BEGIN,
     TABLE_END,
@@ -226,6 +227,8 @@ def test_docs_figures_record_where_they_came_from():
     assert sorted(records) == sorted(name for _, name in DOCS_FIGURES.values())
     for name, r in records.items():
         assert DOCS_FIGURES[r["scene"]] == (r["setting"], name)
+        settings = scene_settings(r["scene"], r["setting"]) | DOCS_OVERRIDES.get(r["scene"], {})
+        assert r["settings"] == json.loads(json.dumps(settings)), name
     for name, r in records.items():
         if r["pre"] is None:
             saved = json.loads((figures / f"{name}.json").read_text())["meta"]["provenance"]
