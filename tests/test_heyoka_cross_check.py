@@ -111,7 +111,13 @@ def test_billiard_impact_times_agree_on_the_b2_attractor():
     starts = np.column_stack([states[k][keep] for k in ("phase", "xi", "vx", "vyrel")])
     out = _compare_billiard(kp, starts)
     _assert_agree(out)
-    assert np.median(out["tol"] / out["tau"]) < MEDIAN_TOL_REL
+    # The tightness check on the flights that are not chattering hops (a tenth of a period
+    # or longer): a hop's tolerance is set by the rounding of the floor's motion A w tau
+    # against its tiny landing speed, not by the flight, and more than half of these
+    # flights are hops.
+    flights = out["tau"] >= 0.1 * kp.period
+    assert flights.sum() >= 100
+    assert np.median(out["tol"][flights] / out["tau"][flights]) < MEDIAN_TOL_REL
 
 
 STATIC = Params(f=50.0, A=0.0)

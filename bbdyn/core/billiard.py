@@ -90,6 +90,7 @@ from bbdyn.core.tolerances import (
     EPS,
     ROOT_MAX_STEPS,
     ROOT_STEP_REL,
+    SERIES_MAX_TERMS,
     WEDGE_MAX_REFLECTIONS,
     WEDGE_TOL,
 )
@@ -365,43 +366,85 @@ def billiard_flight(phase, xi0, vx, vyrel, kp):
 
 
 @njit(cache=True, inline="always")
-def chatter_sum(phase, xi, S, vn, vt, g_eff, g_n, kp):
-    """Closed-form sum of a chattering sequence on an arc.
+def shrinking_series(eps, q, r):
+    """``F = sum_{m >= 0} eps^m / (1 - q r^m)``, ``dF/deps`` and a bound of F's rest, for
+    ``0 <= eps, q, r < 1``.
 
-    After an impact with small normal velocity ``vn`` (mm/s) the particle hops
-    in the effective normal gravity ``g_n = (g_eff S - vt^2) / R`` (the floor's
-    acceleration along the normal, minus the centrifugal term of the convex
-    arc).  Flights ``tau_k = tau_0 alpha^k``, ``tau_0 = 2 vn / g_n``, sum to
-    ``tau_inf = tau_0 / (1 - alpha)``.  The tangential velocity is multiplied by
-    beta at each bounce and accelerated by ``g_t = g_eff xi / R`` in between, so
-    the drift along the arc is
+    Summed until the rest of the derivative's series (it bounds the rest of F's), at
+    most ``m eps^(m-1) / ((1 - eps)^2 (1 - q))`` from term m on, is below half an ulp of
+    F, or for ``SERIES_MAX_TERMS`` terms; returns ``(F, dF/deps, rest)`` with ``rest =
+    eps^m / ((1 - eps)(1 - q))`` bounding what the terms from m on would add to F.
+    """
+    total = 1.0 / (1.0 - q)
+    slope = 0.0
+    power = 1.0  # eps^(m-1) once term m is added
+    rm = 1.0  # r^m
+    for m in range(1, SERIES_MAX_TERMS + 1):
+        if m * power <= 0.5 * EPS * total * (1.0 - eps) ** 2 * (1.0 - q):
+            break
+        rm *= r
+        slope += m * power / (1.0 - q * rm)
+        power *= eps
+        total += power / (1.0 - q * rm)
+    return total, slope, power * eps / ((1.0 - eps) * (1.0 - q))
 
-        ds = vt tau_0 / (1 - alpha beta)
+
+@njit(cache=True, inline="always")
+def chatter_sum(phase, xi, S, vn, vt, g_eff, kp):
+    """Closed-form sum of a chattering sequence on an arc (derivations/chattering.py).
+
+    After an impact with small normal velocity ``vn`` (mm/s) at ``xi`` (``S = sqrt(R^2 -
+    xi^2)``) the particle hops in the normal pull ``g0 = g_eff S / R`` of the floor-frame
+    gravity, less the centrifugal term of the convex arc.  The tangential velocity is
+    multiplied by beta at each bounce, so hop k feels ``g0 (1 - eps beta^(2k))``, ``eps =
+    vt^2 / (g_eff S)``, and lasts ``tau_k = alpha^k tau_0 / (1 - eps beta^(2k))``, ``tau_0 =
+    2 vn / g0``.  Expanding in eps and summing over k first,
+
+        tau_inf = tau_0 sum_m eps^m / (1 - alpha beta^(2m)),
+        ds = vt tau_0 sum_m eps^m / (1 - alpha beta^(2m+1))
              + g_t tau_0^2 [alpha beta / ((1 - alpha^2)(1 - alpha beta)) + 1 / (2 (1 - alpha^2))]
 
-    and the tangential velocity tends to zero.  The neglected variation of
-    ``g_n`` over the sequence (time: at most ``A w^3 |cos| + A w^4 tau_inf``;
-    the centrifugal term: ``vt^2 / R``; the turn of the normal: ``g_eff |ds| / R``)
-    changes ``tau_inf`` by about ``dg tau_inf^2 / g_n``; the sum is accepted only
-    when that is below ``CHATTER_REL_TOL`` periods.
+    (``shrinking_series``: F(eps; alpha, beta^2) and F(eps; alpha beta, beta^2); ``g_t =
+    g_eff xi / R`` the tangential pull, whose term takes the flat flights and is off by at
+    most ``eps (2 - eps) / (1 - eps)^2`` of itself).
 
-    Returns ``(tau_inf, ds)``; ``tau_inf = inf`` when not accepted, for
-    ``alpha = 1`` (no accumulation) and for ``beta = 1`` (sliding, not modelled).
+    Neglected: the change of the drive during the sequence (rate at most ``A w^3 |cos| +
+    A w^4 tau_inf``), which moves ``tau_inf`` by about ``rate tau_inf^2 / g_n``; and
+    changes of the pull itself, each moving ``tau_inf`` by ``tau_inf`` times their size
+    over ``g_n = g0 (1 - eps)``: the turn of the normal over ``ds`` (``g_eff |ds| / R``),
+    the tangential speed gained from ``g_t`` (``(2 |vt| |g_t| tau_inf + (g_t tau_inf)^2) /
+    R``) and the arc's curvature over a hop's height (``eps g0 (vn^2 / g_n + (vt tau_0)^2
+    / R) / R``); and the series' rest beyond the terms summed (``shrinking_series``).  The
+    sum is accepted only when all of this is below ``CHATTER_REL_TOL`` periods
+    (tests/test_billiard_chatter_reference.py checks the time of rest against the sequence
+    solved bounce by bounce in mpmath).
+
+    Returns ``(tau_inf, ds)``; ``tau_inf = inf`` when not accepted, for ``alpha = 1`` (no
+    accumulation) and for ``beta = 1`` (sliding, not modelled).
     """
     A, w, alpha, beta, R = kp.A, kp.w, kp.alpha, kp.beta, kp.R
     if alpha >= 1.0 or beta >= 1.0:
         return math.inf, 0.0
-    tau0 = 2.0 * vn / g_n
-    tau_inf = tau0 / (1.0 - alpha)
+    g0 = g_eff * S / R
+    eps = vt * vt / (g_eff * S)
+    g_n = g0 * (1.0 - eps)
+    tau0 = 2.0 * vn / g0
+    F, _, rest_F = shrinking_series(eps, alpha, beta * beta)
+    tau_inf = tau0 * F
     aw3 = A * w * w * w
-    if aw3 * tau_inf >= 0.5 * g_eff:
+    if not aw3 * tau_inf < 0.5 * g_eff:
         return math.inf, 0.0
     ab = alpha * beta
     g_t = g_eff * xi / R
     one_a2 = 1.0 - alpha * alpha
-    ds = vt * tau0 / (1.0 - ab) + g_t * tau0 * tau0 * (ab / (one_a2 * (1.0 - ab)) + 0.5 / one_a2)
-    dg = aw3 * abs(math.cos(phase)) + aw3 * w * tau_inf + (vt * vt + g_eff * abs(ds)) / R
-    if dg * tau_inf * tau_inf > CHATTER_REL_TOL * kp.period * g_n:
+    H, _, rest_H = shrinking_series(eps, ab, beta * beta)
+    ds = vt * tau0 * H + g_t * tau0 * tau0 * (ab / (one_a2 * (1.0 - ab)) + 0.5 / one_a2)
+    ds_bound = abs(ds) + abs(vt) * tau0 * rest_H
+    drive = (aw3 * abs(math.cos(phase)) + aw3 * w * tau_inf) * tau_inf
+    gained = (2.0 * abs(vt) * abs(g_t) + g_t * g_t * tau_inf) * tau_inf / R
+    curvature = eps * g0 * (vn * vn / g_n + (vt * tau0) ** 2 / R) / R
+    pull = drive + g_eff * ds_bound / R + gained + curvature
+    if not pull * tau_inf + tau0 * rest_F * g_n <= CHATTER_REL_TOL * kp.period * g_n:
         return math.inf, 0.0
     return tau_inf, ds
 
@@ -492,7 +535,7 @@ def collide(periods, phase, tile, xi, vx, vyrel, kp):
         if g_n > 0.0:
             if vn <= 0.0:  # 0, or a rounding of 0 after a tangent wedge reflection
                 return periods, phase, tile, xi, 0.0, 0.0, STICK, OK
-            tau_inf, ds = chatter_sum(phase, xi, S, vn, vt, g_eff, g_n, kp)
+            tau_inf, ds = chatter_sum(phase, xi, S, vn, vt, g_eff, kp)
             if tau_inf < math.inf:
                 # Rotate the contact point by the angle ds / R along the arc; a
                 # drift past the wedge ends in the wedge (it is below 1e-9 mm).

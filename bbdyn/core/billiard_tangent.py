@@ -68,10 +68,11 @@ summed in closed form (``chatter_sum``) ends at the stick point
     xi_s = xi cos(ds / R) + S sin(ds / R),    theta_s = theta + w tau_inf,
 
 with ``tau_inf, ds`` functions of ``(theta, xi, V_n, V_t)`` just after the last
-impact (``g_eff = g + a``, ``g_n = (g_eff S - V_t^2) / R``, ``tau_0 = 2 V_n / g_n``,
-``tau_inf = tau_0 / (1 - alpha)``, ``g_t = g_eff xi / R``,
-``ds = V_t tau_0 c_1 + g_t tau_0^2 c_2`` with ``c_1 = 1 / (1 - alpha beta)``,
-``c_2 = alpha beta / ((1 - alpha^2)(1 - alpha beta)) + 1 / (2 (1 - alpha^2))``).
+impact (``chatter_sum``: ``g_eff = g + a``, ``g_0 = g_eff S / R``, ``eps = V_t^2 / (g_eff
+S)``, ``tau_0 = 2 V_n / g_0``, ``tau_inf = tau_0 F(eps; alpha, beta^2)``, ``g_t = g_eff xi
+/ R``, ``ds = V_t tau_0 F(eps; alpha beta, beta^2) + g_t tau_0^2 c_2`` with ``c_2 = alpha
+beta / ((1 - alpha^2)(1 - alpha beta)) + 1 / (2 (1 - alpha^2))`` and ``F, dF/deps`` from
+``shrinking_series``).
 Its Jacobian ``K`` has only the rows ``theta_s`` and ``x_s``: the velocity
 components ``dvx, dvyrel`` vanish (the particle rests on the floor).  A stick
 at a wedge (a drift clamped there, a wedge collapse, ``V_n = 0``) pins the
@@ -94,6 +95,7 @@ from numba import njit
 from bbdyn.core.billiard import (
     billiard_flight,
     collide,
+    shrinking_series,
     snap_to_wedge,
     wedge_reflect,
 )
@@ -232,14 +234,16 @@ def chatter_stick_rows(phase, xi, vx, vyrel, kp, M):
     vt = (vx * S - vyrel * xi) / R
     aw2 = kp.A * w * w
     g_eff = kp.g + aw2 * math.sin(phase)
-    g_n = (g_eff * S - vt * vt) / R
-    tau0 = 2.0 * vn / g_n
+    g0 = g_eff * S / R
+    eps = vt * vt / (g_eff * S)
+    tau0 = 2.0 * vn / g0
+    F, dF, _ = shrinking_series(eps, alpha, beta * beta)
+    H, dH, _ = shrinking_series(eps, alpha * beta, beta * beta)
     g_t = g_eff * xi / R
     ab = alpha * beta
     one_a2 = 1.0 - alpha * alpha
-    c1 = 1.0 / (1.0 - ab)
     c2 = ab / (one_a2 * (1.0 - ab)) + 0.5 / one_a2
-    ds = vt * tau0 * c1 + g_t * tau0 * tau0 * c2
+    ds = vt * tau0 * H + g_t * tau0 * tau0 * c2
     cr, sr = math.cos(ds / R), math.sin(ds / R)
     for j in range(4):
         # one input direction of (theta, x, vx, vyrel): forward-mode derivatives
@@ -251,13 +255,14 @@ def chatter_stick_rows(phase, xi, vx, vyrel, kp, M):
         d_vn = (d_vx * xi + vx * d_xi + d_vy * S + vyrel * d_S) / R
         d_vt = (d_vx * S + vx * d_S - d_vy * xi - vyrel * d_xi) / R
         d_geff = aw2 * math.cos(phase) * d_th
-        d_gn = (d_geff * S + g_eff * d_S - 2.0 * vt * d_vt) / R
-        d_tau0 = 2.0 * d_vn / g_n - tau0 * d_gn / g_n
+        d_g0 = (d_geff * S + g_eff * d_S) / R
+        d_eps = (2.0 * vt * d_vt - eps * (d_geff * S + g_eff * d_S)) / (g_eff * S)
+        d_tau0 = 2.0 * d_vn / g0 - tau0 * d_g0 / g0
         d_gt = (d_geff * xi + g_eff * d_xi) / R
-        d_ds = c1 * (d_vt * tau0 + vt * d_tau0) + c2 * (
+        d_ds = H * (d_vt * tau0 + vt * d_tau0) + vt * tau0 * dH * d_eps + c2 * (
             d_gt * tau0 * tau0 + 2.0 * g_t * tau0 * d_tau0
         )
-        M[0, j] = d_th + w * d_tau0 / (1.0 - alpha)
+        M[0, j] = d_th + w * (d_tau0 * F + tau0 * dF * d_eps)
         M[1, j] = d_xi * cr + d_S * sr + (S * cr - xi * sr) * d_ds / R
 
 

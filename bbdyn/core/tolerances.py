@@ -21,6 +21,12 @@ ROOT_MAX_STEPS = 100_000
 #: time falls below this fraction of a driving period.
 CHATTER_REL_TOL = 64.0 * EPS
 
+#: Most terms of the chattering sum's series in eps = v_t^2 / (g_eff S) (``shrinking_series``
+#: in ``billiard.py``); 512 terms reach rounding for eps up to about 0.9 (at alpha = 0.5).
+#: Beyond that the bound of the series' rest enters the sum's error budget: the sum is
+#: then accepted only for a sequence short enough that the rest does not matter.
+SERIES_MAX_TERMS = 512
+
 #: Accuracy target for one impact time of the exact flat map (s), issue 2; the
 #: search itself stops at ROOT_STEP_REL of the flight, i.e. ~1e-18 s for 10 ms.
 IMPACT_TIME_TOL = 1e-14
