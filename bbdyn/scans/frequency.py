@@ -15,7 +15,9 @@ Errors and convergence, per frequency:
   particles, ``bbdyn.diffusion.window_consistency``); ``D_converged`` is 0 if p < P_FLAG.
 * ``E_drift, E_drift_err`` (and ``E_x_drift``): late minus early half of the
   averaging window, mean over the particles with its standard error;
-  ``energy_stationary`` is 0 if either drift differs from 0 at p < P_FLAG.  Exact for
+  ``energy_stationary`` is 0 if either drift differs from 0 at p < P_FLAG and by more
+  than the rounding of the energy integrals (a particle stuck for good has the same
+  energy in both halves, to rounding, with a scatter as small).  Exact for
   each particle and free: the ensemble integrates the early half on the way
   (``E_halves``, ``E_x_halves`` of ``bbdyn.ensemble.ensemble``).
 * ``trapped``: 1 if every particle was stuck for good (Gamma <= 1) before the first
@@ -280,7 +282,7 @@ def diffusion_point(
     out["flight_periods"] = float(flying / total) if total else 0.0
     out["events"] = int(res["events"].sum())
 
-    out.update(_energy_drift(res))
+    out.update(_energy_drift(res, params))
     return out
 
 
@@ -310,26 +312,49 @@ def diffusion_fit(times, disp, boot_seed, n_boot: int = 1000) -> dict[str, float
     return out
 
 
-def _energy_drift(res) -> dict[str, float]:
+def _energy_drift(res, params: Params) -> dict[str, float]:
     """Late minus early half of the energy window over the particles that succeeded.
 
-    ``res`` is the ensemble of the point (``E_halves``, ``E_x_halves``).  NaN drifts (and
-    ``energy_stationary = 1``) if the window has no halves or fewer than two particles
-    succeeded.
+    ``res`` is the ensemble of the point (``E_halves``, ``E_x_halves``).  A drift within
+    the rounding of the energy integrals (``_drift_rounding``) is no drift: it is not
+    flagged, however small its standard error.  NaN drifts (and ``energy_stationary = 1``)
+    if the window has no halves or fewer than two particles succeeded.
     """
-    halves = {name: res[name + "_halves"][res.ok] for name in ("E", "E_x")}
-    p0, split, _ = res.meta["halves_periods"]
-    if halves["E"].shape[0] < 2 or split <= p0:
+    ok = res.ok
+    p0, split, p1 = res.meta["halves_periods"]
+    if np.count_nonzero(ok) < 2 or split <= p0:
         out = {name: math.nan for name in ("E_drift", "E_drift_err", "E_x_drift")}
         return {**out, "E_x_drift_err": math.nan, "energy_stationary": 1}
+    floor_low = 2.0 * params.g * params.A  # |g y| <= g y + 2 g A: y >= -A, the floor's lowest
     out: dict[str, float] = {}
     stationary = True
-    for name, both in halves.items():
-        drift, err = _mean_err(both[:, 1] - both[:, 0])
+    for name, scale in (("E", res["E"] + floor_low), ("E_x", res["E_x"])):
+        halves = res[name + "_halves"][ok]
+        drift, err = _mean_err(halves[:, 1] - halves[:, 0])
         out[name + "_drift"], out[name + "_drift_err"] = drift, err
-        stationary &= _two_sided_p(drift, err) >= P_FLAG
+        rounding = _drift_rounding(res["events"][ok], scale[ok], (p0, split, p1))
+        stationary &= abs(drift) <= rounding or _two_sided_p(drift, err) >= P_FLAG
     out["energy_stationary"] = int(stationary)
     return out
+
+
+def _drift_rounding(events: np.ndarray, scale: np.ndarray, cuts) -> float:
+    """Bound on the rounding of a mean late-minus-early drift (units of ``scale``).
+
+    A particle's integral over the window, or its early half, is a sum of at most
+    ``events + 1`` closed-form integrals over intervals (fast-forwarded cycles counted
+    as their events), each exact to ``OBS_INTEGRAL_REL_TOL`` and added with
+    ``SUM_ROUND_PER_TERM`` (``bbdyn.core.tolerances``) relative to the time average of
+    the integrand's absolute value, ``scale`` (per particle).  The early average
+    carries one such error, the late one (whole minus early) those of the whole window
+    and the early half, over the late half's length; ``cuts = (p0, split, p1)`` periods.
+    """
+    from bbdyn.core.tolerances import OBS_INTEGRAL_REL_TOL, SUM_ROUND_PER_TERM
+
+    p0, split, p1 = cuts
+    gain = 1.0 + ((p1 - p0) + (split - p0)) / (p1 - split)
+    per_term = OBS_INTEGRAL_REL_TOL + SUM_ROUND_PER_TERM
+    return float(np.mean((events + 1.0) * per_term * np.abs(scale)) * gain)
 
 
 def _model_changes(model: dict) -> dict[str, float]:
