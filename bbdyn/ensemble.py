@@ -455,6 +455,7 @@ def ensemble(
     run = check_run(params, t, float(t) / 5 if transient is None else transient)
     t, transient = run.t, run.transient
     window = np.array([run.p0, run.p0 + run.L])
+    halves = [run.p0, float(math.floor(run.p0 + run.L / 2)), run.p0 + run.L]  # [p0, split, p1]
     if initial is not None:
         if n is not None or box is not None:
             raise ValueError("give either initial or (n, box), not both")
@@ -481,7 +482,7 @@ def ensemble(
             flags |= flag
     if fast_forward:
         flags |= core.OBS_FAST_FORWARD
-    obs = core.Observables(flags, *periods_phase(np.array(rec_t), params.f))
+    obs = core.Observables(flags, *periods_phase(np.array(rec_t), params.f), halves[1])
     cap = int(jump_capacity) if "jumps" in observables else 0
     n_rec = min(int(record_particles), n) if "record" in observables else 0
     rec_cap = int(record_capacity) if n_rec else 0
@@ -489,7 +490,7 @@ def ensemble(
     out, estimate = allocate(
         {
             "displacement": ((n, s_periods.size), float),
-            "blocks": ((n, 1, 4), float),  # one block: the energy window
+            "blocks": ((n, 2, 4), float),  # the energy window and its first half
             "counts": ((n, core.CNT_WIDTH), np.int64),
             "jump_len": ((n, cap), np.int64),
             "jump_time": ((n, cap), float),
@@ -538,6 +539,7 @@ def ensemble(
         arrays["E_y"] = acc[:, 0, core.ACC_EY] / t_window
         arrays["E_pot"] = acc[:, 0, core.ACC_POT] / t_window
         arrays["E"] = arrays["E_x"] + arrays["E_y"] + arrays["E_pot"]
+        arrays.update(_energy_halves(acc, halves, params.f, status))
     if "jumps" in observables:
         arrays["jump_len"] = out["jump_len"]
         arrays["jump_time"] = out["jump_time"]
@@ -553,6 +555,7 @@ def ensemble(
         transient=transient,
         window_periods=window.tolist(),
         window_s=t_window,
+        halves_periods=halves,
         observables=list(observables),
         threads=used_threads,
         fast_forward=bool(fast_forward),
@@ -561,6 +564,31 @@ def ensemble(
         **failed,
     )
     return EnsembleResult(arrays, meta)
+
+
+def _energy_halves(acc: np.ndarray, cuts: list, f: float, status: np.ndarray) -> dict:
+    """Energies averaged over the early and late half of the window, shape (n, 2) each.
+
+    ``acc`` (n, 2, 4): the kernel's integrals over the window ``[p0, p1]`` and over
+    ``[p0, split]``, ``cuts = [p0, split, p1]`` (whole periods), ``f`` in Hz.  The late
+    half is the whole minus the early one.  NaN for a window of one period (no halves)
+    and for the particles that failed (``status``; they have no late half).
+    """
+    from bbdyn.core.ensemble import ACC_EX, ACC_EY, ACC_POT
+
+    p0, split, p1 = cuts
+    n = acc.shape[0]
+    out = {}
+    for name, col in (("E_x", ACC_EX), ("E_y", ACC_EY), ("E_pot", ACC_POT)):
+        halves = np.full((n, 2), math.nan)
+        if split > p0:
+            early, whole = acc[:, 1, col], acc[:, 0, col]
+            halves[:, 0] = early / ((split - p0) / f)
+            halves[:, 1] = (whole - early) / ((p1 - split) / f)
+        halves[np.isin(status, FAILURES)] = math.nan
+        out[name + "_halves"] = halves
+    out["E_halves"] = out["E_x_halves"] + out["E_y_halves"] + out["E_pot_halves"]
+    return out
 
 
 def _sample_times(sample_times, t: float, wanted: bool) -> np.ndarray:
@@ -580,7 +608,10 @@ class EnsembleResult(Result):
 
     Arrays: ``initial`` (n, 3) ``(s, vx+, vy+)``; ``status`` (n,); ``sample_times`` (m,) s;
     ``displacement`` (n, m) mm; ``E, E_x, E_y, E_pot`` (n,) period-averaged energies
-    (kg mm^2/s^2) over the window; ``stuck_fraction`` (n,); ``collisions``, ``sticks``,
+    (kg mm^2/s^2) over the window, and ``E_halves`` ... ``E_pot_halves`` (n, 2) over its
+    early and late half (whole periods ``meta["halves_periods"] = [p0, split, p1]``,
+    ``split = floor((p0 + p1) / 2)``; NaN for failed particles and a one-period window);
+    ``stuck_fraction`` (n,); ``collisions``, ``sticks``,
     ``jumps`` (n,) counts in the window; ``events`` (n,) in the whole run, of which
     ``skipped_events`` (n,) were fast-forwarded; ``final`` (n, 7)
     the last event before t (periods, phase, tile, xi, vx, vyrel, kind); with jumps

@@ -111,7 +111,7 @@ def test_scan_point_D_is_einstein_D_over_the_late_window_of_its_own_data():
 
     f, n, t = 85.2, 40, 4.0
     seq = np.random.SeedSequence(7)
-    out = diffusion_point(f, seq, n=n, t=t, n_boot=10, check=0)
+    out = diffusion_point(f, seq, n=n, t=t, n_boot=10)
     seed = np.random.SeedSequence(7).spawn(2)[0].generate_state(4).tolist()
     times = np.linspace(0.0, t, 201)
     res = ensemble(Params(f=f), n=n, t=t, seed=seed, sample_times=times)

@@ -94,6 +94,8 @@ def test_elastic_static_floor_conserves_energy_in_every_average(transient):
     _, b = _xi_and_b(p, s)
     E0 = 0.5 * (vx**2 + vy**2) + p.g * b
     assert res["E"] == pytest.approx(E0, rel=1e-10)
+    for half in (0, 1):  # the early and late half of the window
+        assert res["E_halves"][:, half] == pytest.approx(E0, rel=1e-10)
     assert np.all(res["stuck_fraction"] == 0) and np.all(res["sticks"] == 0)
     assert np.all(res["record_n"] <= 10000)
     # E_x from the collision record (post-collision vx times flight durations, clipped to the
@@ -107,6 +109,36 @@ def test_elastic_static_floor_conserves_energy_in_every_average(transient):
         lo, hi = np.clip(times[:-1], t0, t1), np.clip(times[1:], t0, t1)
         Ex = np.sum(0.5 * vxs**2 * (hi - lo)) / (t1 - t0)
         assert res["E_x"][i] == pytest.approx(Ex, rel=1e-9)
+
+
+@pytest.mark.parametrize("samples", [41, 0], ids=["samples", "no_samples"])
+@pytest.mark.parametrize(("f", "t"), [(58.0, 20.0), (85.2, 2.0)])
+def test_energy_halves_are_those_of_runs_over_each_half(f, t, samples):
+    # Independent: the old construction, a second run of the same particles (same seed and
+    # indices, the same trajectories) whose window ends at the split / starts there.  At
+    # 58 Hz most particles are on fast-forwarded stick-release cycles by then; with no
+    # samples a skip runs to the end of the window, over the split.
+    p = Params(f=f)
+    n, seed = 12, 3
+    obs = ("displacement", "energy") if samples else ("energy",)
+    res = ensemble(p, n=n, t=t, seed=seed, sample_times=np.linspace(0, t, max(samples, 1)),
+                   observables=obs)  # fmt: skip
+    p0, p1 = res.meta["window_periods"]
+    mid = math.floor((p0 + p1) / 2)
+    assert res.meta["halves_periods"] == [p0, mid, p1]
+    skipping = np.count_nonzero(res["skipped_events"])
+    assert skipping >= n // 2 if f == 58.0 else skipping == 0
+    kw = {"n": n, "seed": seed, "observables": ("energy",)}
+    early = ensemble(p, t=(mid + 0.5) / f, transient=(p0 - 0.5) / f, **kw)
+    late = ensemble(p, t=(p1 + 0.5) / f, transient=(mid - 0.5) / f, **kw)
+    assert early.meta["window_periods"] == [p0, mid] and late.meta["window_periods"] == [mid, p1]
+    for name in ("E", "E_x", "E_y", "E_pot"):
+        halves = res[name + "_halves"]
+        assert halves.shape == (n, 2)
+        np.testing.assert_allclose(halves[:, 0], early[name], rtol=1e-12)
+        # the late half is the whole minus the early half: rounding of the larger whole
+        scale = 1e-12 * (p1 - p0) / (p1 - mid) * np.abs(res[name])
+        assert np.all(np.abs(halves[:, 1] - late[name]) <= scale + 1e-12 * np.abs(late[name]))
 
 
 def test_particle_glued_to_the_floor_has_the_harmonic_averages():

@@ -3,8 +3,9 @@
 Facts checked: the Einstein D of synthetic random walks covers the truth at the
 nominal rate, and its bootstrap error agrees with the analytic one; the window
 test keeps its size and detects a drifting D; a particle stuck to the floor
-(Gamma < 1) has the harmonic energies; the energy drift check splits the window
-exactly; scans are the same resumed, on dask, and trapped below Gamma = 1.
+(Gamma < 1) has the harmonic energies; the energy drift of every particle is
+its late minus early half, as two separate runs give, 0 when stuck and flagged during
+a transient; scans are the same resumed, on dask, and trapped below Gamma = 1.
 """
 
 import functools
@@ -122,20 +123,37 @@ def test_gamma_below_one_stuck_particles_have_harmonic_energies():
     assert out["trapped"] == 1 and out["D"] == 0.0 and out["D_err"] == 0.0
 
 
-def test_energy_drift_split_is_exact():
-    """Early half from a second run + whole window = late half computed directly."""
-    params = Params(f=85.2)
+@pytest.mark.parametrize("f", [58.0, 85.2])
+def test_energy_drift_is_late_minus_early_half_for_every_particle(f):
+    """The drift of every particle equals that of two separate runs, one per half window."""
+    params = Params(f=f)
     seq = np.random.SeedSequence(8)
-    out = diffusion_point(85.2, seq, n=10, t=2.0, check=10)
+    out = diffusion_point(f, seq, n=10, t=2.0, n_boot=10)
     seed = np.random.SeedSequence(8).spawn(2)[0].generate_state(4).tolist()
-    p0, p1 = math.ceil(0.4 * 85.2), math.floor(2.0 * 85.2)
+    p0, p1 = math.ceil(0.4 * f), math.floor(2.0 * f)
     mid = (p0 + p1) // 2
-    f = params.f
     early = ensemble(params, n=10, t=(mid + 0.5) / f, seed=seed, transient=(p0 - 0.5) / f)
     late = ensemble(params, n=10, t=(p1 + 0.5) / f, seed=seed, transient=(mid - 0.5) / f)
     assert early.meta["window_periods"] == [p0, mid] and late.meta["window_periods"] == [mid, p1]
-    drift = late["E"] - early["E"]
-    assert out["E_drift"] == pytest.approx(drift.mean(), rel=1e-9, abs=1e-9 * late["E"].max())
+    for name in ("E", "E_x"):
+        drift = late[name] - early[name]
+        scale = 1e-9 * late[name].max()
+        assert out[name + "_drift"] == pytest.approx(drift.mean(), rel=1e-9, abs=scale)
+        err = drift.std(ddof=1) / math.sqrt(drift.size)
+        assert out[name + "_drift_err"] == pytest.approx(err, rel=1e-6, abs=scale)
+
+
+def test_energy_drift_zero_when_stuck_and_flagged_in_a_transient():
+    """Stuck for good before the window: the same energy in both halves (drift 0 to
+    rounding, not flagged however small its scatter); from the box with no transient at
+    50.2 Hz the energy relaxes for seconds (docs/results.md), so the halves differ."""
+    stuck = diffusion_point(45.0, np.random.SeedSequence(5), n=12, t=3.0, transient=1.5)
+    assert stuck["E_x_drift"] == 0.0
+    assert abs(stuck["E_drift"]) <= 1e-12 * stuck["E"]
+    assert stuck["energy_stationary"] == 1  # a rounding difference is no drift
+    relaxing = diffusion_point(50.2, np.random.SeedSequence(0), n=20, t=2.0, transient=0.0)
+    assert relaxing["energy_stationary"] == 0
+    assert abs(relaxing["E_drift"]) > 5 * relaxing["E_drift_err"]
 
 
 def test_diffusion_point_reports_every_number_with_its_error():
@@ -149,8 +167,8 @@ def test_diffusion_point_reports_every_number_with_its_error():
 
 @pytest.mark.parametrize(
     "kwargs, match",
-    [({"n": 1}, "n must"), ({"n_samples": 5}, "n_samples"), ({"check": -1}, "check")],
-    ids=["one-particle", "few-samples", "negative-check"],
+    [({"n": 1}, "n must"), ({"n_samples": 5}, "n_samples")],
+    ids=["one-particle", "few-samples"],
 )
 def test_diffusion_point_refuses_bad_input(kwargs, match):
     with pytest.raises(ValueError, match=match):

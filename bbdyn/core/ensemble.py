@@ -28,7 +28,8 @@ Conventions (docs/model.md §3 and §4):
 * event counts, stuck time and energy integrals cover the energy window; jumps
   are recorded in it; the collision record covers the record window
   (``Observables``).  The window ``[p0, p0 + nb L]`` may be cut into ``nb`` blocks
-  of ``L`` periods (features); the ensemble uses one block.
+  of ``L`` periods (features); the ensemble uses one block, and integrates its first
+  part ``[p0, split]`` into a second row besides (``split_row``: the energy halves).
 
 The kernels take named tuples: the loop state ``bbdyn.ensemble.Carry``, the times
 ``RunTimes``, what to observe (``Observables``, ensemble) or the feature thresholds
@@ -133,22 +134,27 @@ class Observables(NamedTuple):
 
     ``flags``: OR of the ``OBS_*`` flags.  ``record_periods, record_phase``, shape (2,):
     start and end of the window of the collision record (with ``OBS_RECORD``).
+    ``split_periods``: whole periods (phase 0) in ``[p0, p0 + L]`` that end the first
+    part of the energy window, row 1 of ``EnsembleOut.blocks``.
     """
 
     flags: int
     record_periods: np.ndarray
     record_phase: np.ndarray
+    split_periods: float
 
 
 class EnsembleOut(NamedTuple):
     """Output arrays of ``run_ensemble``, row ``i`` for particle ``i`` (kernel argument).
 
     Filled in place; all but ``status`` must start at zero.  ``counts`` stays a table
-    (``fast_forward`` differences whole rows), ``blocks`` one row per block.
+    (``fast_forward`` differences whole rows).  ``blocks``: row 0 the energy window
+    ``[p0, p0 + L]``, row 1 its first part ``[p0, split]`` (``Observables.split_periods``;
+    row 1 is written once the particle passes the split, see ``split_row``).
     """
 
     displacement: np.ndarray  # (n, m): x(t_k) - x(0) (mm) at the sample times
-    blocks: np.ndarray  # (n, 1, 4): integrals over the energy window, columns ACC_*
+    blocks: np.ndarray  # (n, 2, 4): integrals over the energy window and its first part, ACC_*
     counts: np.ndarray  # int64 (n, CNT_WIDTH): columns CNT_*
     jump_len: np.ndarray  # int64 (n, cap): trap changes in the window (units of d)
     jump_time: np.ndarray  # (n, cap): their times (s)
@@ -256,7 +262,49 @@ def integrate_blocks(acc, ev, hi, window, kp, energy):
 
 
 @njit(cache=True)
-def fast_forward(carry, i, n_rel, ev, k, bound, window, out):
+def split_row(acc, ev, hi, p0, split, kp, energy):
+    """Row 1 of ``acc`` := row 0 plus the part in ``[p0, split]`` of the motion ``ev`` to ``hi``.
+
+    Called once per particle, for the interval from the event ``ev`` (before ``split``
+    whole periods, phase 0) to ``hi`` (a ``(periods, phase)`` pair at or after it), before
+    the interval is added to row 0 (the window ``[p0, ...]``).  Row 0 then holds the
+    integrals up to ``ev``: without fast-forward, the same sums in the same order as a
+    run whose window ends at ``split``, so row 1 is bitwise what that run gives.
+    """
+    for c in range(4):
+        acc[1, c] = acc[0, c]
+    if p0 < split:
+        integrate_blocks(acc[1:], ev, hi, Window(p0, split - p0, 1), kp, energy)
+
+
+@njit(cache=True)
+def integrate_to_split(acc, ev, p0, split, kp, energy):
+    """Add to row 1 of ``acc`` the motion from the event ``ev`` up to ``split``, event by event.
+
+    For ``fast_forward``: the cycle a skip carries over ``split`` (whole periods, phase 0)
+    is simulated again from its release ``ev`` up to the split; the part in ``[p0, split]``
+    of each interval is added (``integrate_blocks``).  The events are those the skipped
+    cycle makes (``fast_forward``: the same, translated), so this cannot fail; a failure
+    status stops it all the same.
+    """
+    half = Window(p0, split - p0, 1)
+    rows = acc[1:]
+    periods, phase, tile, xi, vx, vyrel, kind = ev
+    while is_before(periods, phase, split, 0.0):
+        nxt = billiard_event(periods, phase, tile, xi, vx, vyrel, kind, kp)
+        if nxt[7] != OK and nxt[7] != STUCK_FOREVER:
+            return
+        hi_p, hi_ph = split, 0.0
+        if nxt[7] == OK and is_before(nxt[0], nxt[1], split, 0.0):
+            hi_p, hi_ph = nxt[0], nxt[1]
+        ev_now = Event(periods, phase, tile, xi, vx, vyrel, kind)
+        integrate_blocks(rows, ev_now, (hi_p, hi_ph), half, kp, energy)
+        periods, phase, tile, xi, vx, vyrel = hi_p, hi_ph, nxt[2], nxt[3], nxt[4], nxt[5]
+        kind = nxt[6]
+
+
+@njit(cache=True)
+def fast_forward(carry, i, n_rel, ev, k, bound, window, split, kp, energy, out):
     """Skip whole stick-release cycles of particle ``i`` once a release state repeats bitwise.
 
     Exactness: a RELEASE leaves at ``phase = theta_r`` with ``vx = vyrel = 0`` relative to
@@ -272,7 +320,10 @@ def fast_forward(carry, i, n_rel, ev, k, bound, window, out):
     cycle and the ``K`` skipped ones contain no window boundary, no sample time (``k``
     unchanged, ``bound`` the next one) and no recorded jump (none was seen in a stick-release
     cycle; a drifting cycle is simulated) and end before ``end``; around those the loop runs
-    normally.
+    normally.  The split of the energy window is no bound (the skips, and so the window's
+    integrals, are those of a run without it): if a skipped cycle passes it, row 1 of
+    ``blocks`` gets the whole cycles before it the same way and the cycle that passes it
+    from ``integrate_to_split``.
 
     Parameters
     ----------
@@ -291,6 +342,11 @@ def fast_forward(carry, i, n_rel, ev, k, bound, window, out):
         Next sample index; ``bound`` its time ``(periods, phase)`` or the end.
     window : Window
         The window (one block).
+    split : float
+        End of the first part of the window (whole periods, ``Observables.split_periods``).
+    kp : KernelParams
+    energy : bool
+        Whether the energy integrals are computed (``OBS_ENERGY``).
     out : EnsembleOut
         Row ``i`` of ``blocks`` and ``counts`` is advanced by the skipped cycles.
 
@@ -327,6 +383,18 @@ def fast_forward(carry, i, n_rel, ev, k, bound, window, out):
             K -= 1
         if K < 1:
             break
+        if is_before(periods, phase, split, 0.0):
+            # cycles ending before the split, and does the next skipped one pass it?
+            K_split = int(min(K, (split - periods) // dP))
+            while K_split > 0 and not is_before(periods + K_split * dP, phase, split, 0.0):
+                K_split -= 1
+            if K_split < K:
+                for c in range(4):
+                    acc[1, c] = acc[0, c] + K_split * (acc[0, c] - rel_acc[s, c])
+                release = Event(
+                    periods + K_split * dP, phase, tile + K_split * dl, xi, ev.vx, ev.vyrel, ev.kind
+                )
+                integrate_to_split(acc, release, p0, split, kp, energy)
         for c in range(4):
             acc[0, c] += K * (acc[0, c] - rel_acc[s, c])
         n_cycle = counts[CNT_EVENTS] - rel_cnt[s, CNT_EVENTS]
@@ -421,6 +489,9 @@ def particle_loop(carry, i, budget, kp, times, out, obs, th):
     window = Window(times.p0, times.L, times.nb)
     p0, L, nb = window
     p1 = p0 + nb * L
+    split = p0  # an ensemble integrates [p0, split] into row 1 of its blocks as well
+    if obs is not None:
+        split = obs.split_periods
     sample_periods, sample_phase = times.sample_periods, times.sample_phase
     n_samples = sample_periods.shape[0]
     status = OK
@@ -442,9 +513,12 @@ def particle_loop(carry, i, budget, kp, times, out, obs, th):
         last = not is_before(n_periods, n_phase, end_p, end_ph)
         stuck = kind == STICK
         seg_end = (end_p, end_ph) if last else (n_periods, n_phase)
-        integrate_blocks(
-            acc, Event(periods, phase, tile, xi, vx, vyrel, kind), seg_end, window, kp, energy
-        )
+        ev = Event(periods, phase, tile, xi, vx, vyrel, kind)
+        if obs is not None:  # the interval that passes the split (once): row 1 of the blocks
+            hi_p, hi_ph = seg_end
+            if is_before(periods, phase, split, 0.0) and not is_before(hi_p, hi_ph, split, 0.0):
+                split_row(acc, ev, seg_end, p0, split, kp, energy)
+        integrate_blocks(acc, ev, seg_end, window, kp, energy)
 
         # positions at the sample times inside this interval (all remaining ones if last)
         if do_disp:
@@ -470,7 +544,7 @@ def particle_loop(carry, i, budget, kp, times, out, obs, th):
                     bound = (sample_periods[k], sample_phase[k])
                 K, dP, dl, n_rel = fast_forward(
                     carry, i, n_rel, Event(periods, phase, tile, xi, vx, vyrel, kind), k, bound,
-                    window, out,
+                    window, split, kp, energy, out,
                 )  # fmt: skip
                 periods += K * dP
                 tile += K * dl
@@ -546,7 +620,7 @@ def run_ensemble(carry, budget, kp, times, obs, out):
     times : RunTimes
         End, energy window (one block: ``nb = 1``, ``L`` its length) and sample times.
     obs : Observables
-        Flags and record window.
+        Flags, record window and the split of the energy window.
     out : EnsembleOut
         Outputs.  ``counts[:, CNT_JUMPS]`` may exceed the jump capacity and
         ``counts[:, CNT_RECORD]`` the record capacity (counted, not stored).  ``status``:

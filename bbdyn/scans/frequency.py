@@ -14,10 +14,12 @@ Errors and convergence, per frequency:
   ``D_windows_p``: p-value of "D is the same in every window" (Hotelling T^2 over
   particles, ``bbdyn.diffusion.window_consistency``); ``D_converged`` is 0 if p < P_FLAG.
 * ``E_drift, E_drift_err`` (and ``E_x_drift``): late minus early half of the
-  averaging window for the first ``check`` particles; ``energy_stationary`` is 0 if
-  either drift differs from 0 at p < P_FLAG.  Computed exactly, for ~6 % extra cost,
-  from a second run of those particles to the middle of the window (a particle's
-  initial condition depends only on the seed and its index).
+  averaging window, mean over the particles with its standard error;
+  ``energy_stationary`` is 0 if either drift differs from 0 at p < P_FLAG and by more
+  than the rounding of the energy integrals (a particle stuck for good has the same
+  energy in both halves, to rounding, with a scatter as small).  Exact for
+  each particle and free: the ensemble integrates the early half on the way
+  (``E_halves``, ``E_x_halves`` of ``bbdyn.ensemble.ensemble``).
 * ``trapped``: 1 if every particle was stuck for good (Gamma <= 1) before the first
   D window began; then x is constant there and D = 0 exactly (``D_err = 0``).
 """
@@ -113,15 +115,13 @@ def frequency_grid(f_start: float, f_stop: float, f_step: float) -> np.ndarray:
     return np.round(float(f_start) + float(f_step) * np.arange(count), 9)
 
 
-def _check_point_arguments(params: Params, n, t, transient, n_samples, check) -> int:
+def _check_point_arguments(params: Params, n, t, transient, n_samples) -> int:
     """Validate the arguments of ``diffusion_point`` at ``params``; returns ``n`` as an int."""
     from bbdyn.ensemble import check_n, check_run
 
     n = check_n(n)
     if int(n_samples) != n_samples or n_samples < 11:
         raise ValueError(f"n_samples must be an integer >= 11, got {n_samples}")
-    if int(check) != check or check < 0:
-        raise ValueError(f"check must be an integer >= 0, got {check}")
     check_run(params, t, float(t) / 5 if transient is None else transient)
     return n
 
@@ -157,7 +157,7 @@ def check_scan_size(
     from bbdyn.ensemble import check_size
 
     for f in (f_lo, f_hi):
-        n = _check_point_arguments(Params(f=f), n, t, transient, n_samples, 0)
+        n = _check_point_arguments(Params(f=f), n, t, transient, n_samples)
     t = float(t)
     cpu = cpu_estimate(n_points * 0.5 * (f_lo + f_hi), n, t)
     disk = n_points * point_bytes(n_samples)
@@ -198,7 +198,6 @@ def diffusion_point(
     t: float = 200.0,
     transient: float | None = None,
     n_samples: int = N_SAMPLES,
-    check: int = 100,
     n_boot: int = 1000,
     A: float | None = None,
     alpha: float | None = None,
@@ -222,8 +221,6 @@ def diffusion_point(
         Time (s) before the energy averages; default ``t / 5``.
     n_samples : int
         Equally spaced displacement samples in ``[0, t]`` (the MSD curve), >= 11.
-    check : int
-        Particles rerun for the energy stationarity check (``min(check, n)``; 0: skip).
     n_boot : int
         Bootstrap resamples of D.
     A, alpha, beta, R, d : float, optional
@@ -250,14 +247,13 @@ def diffusion_point(
     given = (("A", A), ("alpha", alpha), ("beta", beta), ("R", R), ("d", d))
     changes = {k: v for k, v in given if v is not None}
     params = Params(f=f, **changes)
-    n = _check_point_arguments(params, n, t, transient, n_samples, check)
+    n = _check_point_arguments(params, n, t, transient, n_samples)
     ic_seed, boot_seed = seed_sequence.spawn(2)
     # ensemble() seeds np.random.SeedSequence(seed): hand it the child's entropy words
     seed = ic_seed.generate_state(4).tolist()
     times = np.linspace(0.0, float(t), int(n_samples))
     res = ensemble(params, n=n, t=t, seed=seed, transient=transient, sample_times=times)
     disp = res["displacement"]
-    window = res.meta["window_periods"]
 
     out: dict[str, float | np.ndarray] = {"gamma": params.gamma}
     # stuck for good before the first D window: x is constant in every window, D = 0
@@ -286,7 +282,7 @@ def diffusion_point(
     out["flight_periods"] = float(flying / total) if total else 0.0
     out["events"] = int(res["events"].sum())
 
-    out.update(_energy_drift(params, res, seed, int(min(check, n)), float(t), window))
+    out.update(_energy_drift(res, params))
     return out
 
 
@@ -316,39 +312,49 @@ def diffusion_fit(times, disp, boot_seed, n_boot: int = 1000) -> dict[str, float
     return out
 
 
-def _energy_drift(params: Params, res, seed, m: int, t: float, window) -> dict[str, float]:
-    """Late minus early half of the energy window for the first ``m`` particles."""
-    from bbdyn.ensemble import ensemble
+def _energy_drift(res, params: Params) -> dict[str, float]:
+    """Late minus early half of the energy window over the particles that succeeded.
 
-    nan = {"E_drift": math.nan, "E_drift_err": math.nan, "E_x_drift": math.nan}
-    nan.update(E_x_drift_err=math.nan, energy_stationary=1)
-    p0, p1 = window
-    mid = math.floor((p0 + p1) / 2)
-    if m < 2 or mid <= p0 or mid >= p1:
-        return nan
-    # same seed and indices: the first m particles repeat their trajectories exactly;
-    # half periods off the window edges, so that ceil / floor of (time f) give p0 and mid
-    # (a window from p0 = 0 starts at transient 0: ceil(0) = 0, and time starts there)
-    early = ensemble(
-        params,
-        n=m,
-        t=(mid + 0.5) / params.f,
-        seed=seed,
-        transient=max(p0 - 0.5, 0.0) / params.f,
-        observables=("energy",),
-    )
-    if early.meta["window_periods"] != [p0, mid]:
-        raise RuntimeError(f"energy check window {early.meta['window_periods']} != {[p0, mid]}")
+    ``res`` is the ensemble of the point (``E_halves``, ``E_x_halves``).  A drift within
+    the rounding of the energy integrals (``_drift_rounding``) is no drift: it is not
+    flagged, however small its standard error.  NaN drifts (and ``energy_stationary = 1``)
+    if the window has no halves or fewer than two particles succeeded.
+    """
+    ok = res.ok
+    p0, split, p1 = res.meta["halves_periods"]
+    if np.count_nonzero(ok) < 2 or split <= p0:
+        out = {name: math.nan for name in ("E_drift", "E_drift_err", "E_x_drift")}
+        return {**out, "E_x_drift_err": math.nan, "energy_stationary": 1}
+    floor_low = 2.0 * params.g * params.A  # |g y| <= g y + 2 g A: y >= -A, the floor's lowest
     out: dict[str, float] = {}
     stationary = True
-    for name in ("E", "E_x"):
-        whole, first = res[name][:m], early[name]
-        late = (whole * (p1 - p0) - first * (mid - p0)) / (p1 - mid)
-        drift, err = _mean_err(late - first)
+    for name, scale in (("E", res["E"] + floor_low), ("E_x", res["E_x"])):
+        halves = res[name + "_halves"][ok]
+        drift, err = _mean_err(halves[:, 1] - halves[:, 0])
         out[name + "_drift"], out[name + "_drift_err"] = drift, err
-        stationary &= _two_sided_p(drift, err) >= P_FLAG
+        rounding = _drift_rounding(res["events"][ok], scale[ok], (p0, split, p1))
+        stationary &= abs(drift) <= rounding or _two_sided_p(drift, err) >= P_FLAG
     out["energy_stationary"] = int(stationary)
     return out
+
+
+def _drift_rounding(events: np.ndarray, scale: np.ndarray, cuts) -> float:
+    """Bound on the rounding of a mean late-minus-early drift (units of ``scale``).
+
+    A particle's integral over the window, or its early half, is a sum of at most
+    ``events + 1`` closed-form integrals over intervals (fast-forwarded cycles counted
+    as their events), each exact to ``OBS_INTEGRAL_REL_TOL`` and added with
+    ``SUM_ROUND_PER_TERM`` (``bbdyn.core.tolerances``) relative to the time average of
+    the integrand's absolute value, ``scale`` (per particle).  The early average
+    carries one such error, the late one (whole minus early) those of the whole window
+    and the early half, over the late half's length; ``cuts = (p0, split, p1)`` periods.
+    """
+    from bbdyn.core.tolerances import OBS_INTEGRAL_REL_TOL, SUM_ROUND_PER_TERM
+
+    p0, split, p1 = cuts
+    gain = 1.0 + ((p1 - p0) + (split - p0)) / (p1 - split)
+    per_term = OBS_INTEGRAL_REL_TOL + SUM_ROUND_PER_TERM
+    return float(np.mean((events + 1.0) * per_term * np.abs(scale)) * gain)
 
 
 def _model_changes(model: dict) -> dict[str, float]:
@@ -392,7 +398,7 @@ def frequency_scan(
     if freqs:  # run_scan names an empty or non-finite list
         check_scan_size(min(freqs), max(freqs), len(freqs), n=n, t=t, transient=transient)
         for f in freqs:
-            _check_point_arguments(Params(f=f, **changes), n, t, transient, N_SAMPLES, 0)
+            _check_point_arguments(Params(f=f, **changes), n, t, transient, N_SAMPLES)
     kwargs = {"n": int(n), "t": float(t), **changes}
     if transient is not None:
         kwargs["transient"] = float(transient)

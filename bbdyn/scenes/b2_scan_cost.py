@@ -6,8 +6,7 @@ time (s) per particle-second; ``a + n b`` (set-up, transient, analysis) is the s
 for ``t`` and ``2 t``.  So ``c`` is measured at a few sampled frequencies as
 ``(T(n_s, 2 t_s) - T(n_s, t_s)) / (n_s t_s)`` with ``T`` the CPU time of
 ``diffusion_point`` (this process, ``time.process_time``, numba on one thread;
-median over ``repeats`` pairs; energy-check particles scaled in proportion,
-``check = CHECK_SHARE n_s``).  Between the samples of one band (``BANDS``:
+median over ``repeats`` pairs).  Between the samples of one band (``BANDS``:
 regimes of different cost) ``c`` is interpolated linearly in f; the band's
 prediction is the sum of ``n t c(f)`` over its grid points with the full ``n`` and
 ``t``, the total the sum over the bands.  ``a + n b`` is left out (measured:
@@ -43,8 +42,6 @@ __all__ = ["BANDS", "FULL", "QUICK", "compute", "predict", "sample_frequencies",
 BANDS = ((49.8, 53.0), (53.2, 57.4), (57.6, 65.0), (65.2, 80.0), (80.2, 95.0))
 #: The full S3-S5 scan: grid step (Hz), particles, simulated time (s).
 F_STEP, FULL_N, FULL_T = 0.2, 1000, 200.0
-#: Share of the particles rerun for the energy stationarity check (100 of 1000).
-CHECK_SHARE = 0.1
 
 TITLE = "Cost model of the full S3-S5 scan: CPU time per particle-second against f"
 QUICK = {"samples": 14, "n": 16, "t": 10.0, "repeats": 3}
@@ -111,10 +108,9 @@ def point_cpu(f: float, n: int, t: float) -> float:
     from bbdyn.scans.frequency import N_SAMPLES, diffusion_point
     from bbdyn.scans.runner import point_seed
 
-    check = max(2, round(CHECK_SHARE * n))
     n_samples = max(11, round(t / FULL_T * (N_SAMPLES - 1)) + 1)
     start = time.process_time()
-    diffusion_point(f, point_seed(0, f), n=n, t=t, n_samples=n_samples, check=check, n_boot=10)
+    diffusion_point(f, point_seed(0, f), n=n, t=t, n_samples=n_samples, n_boot=10)
     return time.process_time() - start
 
 

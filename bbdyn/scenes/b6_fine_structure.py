@@ -92,7 +92,7 @@ def run_points(settings: dict, seed: int, out_dir=None, progress=False):
     values = np.unique(f)
     n, t = int(settings["n"]), float(settings["t"])
     check_scan_size(float(values.min()), float(values.max()), values.size, n=n, t=t)
-    compute = functools.partial(diffusion_point, n=n, t=t, check=0, n_boot=N_BOOT)
+    compute = functools.partial(diffusion_point, n=n, t=t, n_boot=N_BOOT)
     return run_scan(
         values.tolist(),
         compute,
