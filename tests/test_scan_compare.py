@@ -1,0 +1,50 @@
+"""benchmarks/scan_compare.py: z scores of two scans, on synthetic scans with known truth."""
+
+import importlib.util
+from pathlib import Path
+
+import numpy as np
+
+SCRIPT = Path(__file__).resolve().parents[1] / "benchmarks" / "scan_compare.py"
+
+
+def _module():
+    spec = importlib.util.spec_from_file_location("scan_compare", SCRIPT)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def _scan(f, truth, err, rng, shift=0.0):
+    """A synthetic scan: every quantity is ``truth + shift err`` plus N(0, err) noise."""
+    out = {"f": f}
+    for name in ("D", "E", "E_x"):
+        out[name] = truth + shift * err + rng.normal(0.0, err)
+        out[name + "_err"] = err
+    return out
+
+
+def test_two_samples_of_the_same_truth_look_like_noise_and_a_shift_does_not():
+    m = _module()
+    rng = np.random.default_rng(3)
+    f = np.round(np.arange(49.8, 95.0001, 0.2), 9)
+    truth, err = np.sin(f), np.full(f.size, 0.1)
+    same = m.z_scores(_scan(f, truth, err, rng), _scan(f[::-1], truth[::-1], err, rng))
+    assert same["n_points"] == f.size
+    for name in ("D", "E", "E_x"):
+        # z = N(0, 2 err^2) / (sqrt(2) err): standard normal; 227 points
+        assert abs(same[name]["std_z"] - 1.0) < 0.15
+        assert same[name]["n_beyond_3"] <= 3
+    shifted = m.z_scores(_scan(f, truth, err, rng), _scan(f, truth, err, rng, shift=8.0))
+    assert shifted["D"]["beyond_3"] > 0.9  # mean z = 8 / sqrt(2)
+
+
+def test_exact_zeros_count_as_agreement_and_are_reported_when_they_differ():
+    m = _module()
+    f = np.array([49.8, 50.0])
+    zeros = np.zeros(2)
+    old = {"f": f, **{k: zeros for k in ("D", "D_err", "E", "E_err", "E_x", "E_x_err")}}
+    new = dict(old, D=np.array([0.0, 1e-3]))
+    out = m.z_scores(old, new)
+    assert out["D"]["n_exact"] == 2 and out["D"]["exact_disagree_f"] == [50.0]
+    assert out["E"]["exact_disagree_f"] == []
