@@ -398,7 +398,7 @@ def chatter_sum(phase, xi, S, vn, vt, g_eff, kp):
     gravity, less the centrifugal term of the convex arc.  The tangential velocity is
     multiplied by beta at each bounce, so hop k feels ``g0 (1 - eps beta^(2k))``, ``eps =
     vt^2 / (g_eff S)``, and lasts ``tau_k = alpha^k tau_0 / (1 - eps beta^(2k))``, ``tau_0 =
-    2 vn / g0``.  Expanding in eps and summing over k first,
+    2 vn / g0``.  Expanding in eps and summing over k first::
 
         tau_inf = tau_0 sum_m eps^m / (1 - alpha beta^(2m)),
         ds = vt tau_0 sum_m eps^m / (1 - alpha beta^(2m+1))

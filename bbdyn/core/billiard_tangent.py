@@ -68,11 +68,11 @@ summed in closed form (``chatter_sum``) ends at the stick point
     xi_s = xi cos(ds / R) + S sin(ds / R),    theta_s = theta + w tau_inf,
 
 with ``tau_inf, ds`` functions of ``(theta, xi, V_n, V_t)`` just after the last
-impact (``chatter_sum``: ``g_eff = g + a``, ``g_0 = g_eff S / R``, ``eps = V_t^2 / (g_eff
-S)``, ``tau_0 = 2 V_n / g_0``, ``tau_inf = tau_0 F(eps; alpha, beta^2)``, ``g_t = g_eff xi
-/ R``, ``ds = V_t tau_0 F(eps; alpha beta, beta^2) + g_t tau_0^2 c_2`` with ``c_2 = alpha
-beta / ((1 - alpha^2)(1 - alpha beta)) + 1 / (2 (1 - alpha^2))`` and ``F, dF/deps`` from
-``shrinking_series``).
+impact (``chatter_sum``): ``g_eff = g + a``, ``g_0 = g_eff S / R``,
+``eps = V_t^2 / (g_eff S)``, ``tau_0 = 2 V_n / g_0``, ``tau_inf = tau_0 F(eps; alpha, beta^2)``,
+``g_t = g_eff xi / R``, ``ds = V_t tau_0 F(eps; alpha beta, beta^2) + g_t tau_0^2 c_2`` with
+``c_2 = alpha beta / ((1 - alpha^2)(1 - alpha beta)) + 1 / (2 (1 - alpha^2))``, and ``F``,
+``dF/deps`` from ``shrinking_series``.
 Its Jacobian ``K`` has only the rows ``theta_s`` and ``x_s``: the velocity
 components ``dvx, dvyrel`` vanish (the particle rests on the floor).  A stick
 at a wedge (a drift clamped there, a wedge collapse, ``V_n = 0``) pins the
