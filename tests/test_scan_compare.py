@@ -15,12 +15,14 @@ def _module():
     return module
 
 
-def _scan(f, truth, err, rng, shift=0.0):
-    """A synthetic scan: every quantity is ``truth + shift err`` plus N(0, err) noise."""
+def _scan(f, truth, err, rng, shift=0.0, rounding=0.0):
+    """A synthetic scan: every quantity is ``truth + shift err`` plus N(0, err) noise, with
+    rounding bounds ``rounding``."""
     out = {"f": f}
     for name in ("D", "E", "E_x"):
         out[name] = truth + shift * err + rng.normal(0.0, err)
         out[name + "_err"] = err
+        out[name + "_round"] = np.full(f.size, rounding)
     return out
 
 
@@ -43,8 +45,24 @@ def test_exact_zeros_count_as_agreement_and_are_reported_when_they_differ():
     m = _module()
     f = np.array([49.8, 50.0])
     zeros = np.zeros(2)
-    old = {"f": f, **{k: zeros for k in ("D", "D_err", "E", "E_err", "E_x", "E_x_err")}}
+    names = ("D", "D_err", "D_round", "E", "E_err", "E_round", "E_x", "E_x_err", "E_x_round")
+    old = {"f": f, **{k: zeros for k in names}}
     new = dict(old, D=np.array([0.0, 1e-3]))
     out = m.z_scores(old, new)
     assert out["D"]["n_exact"] == 2 and out["D"]["exact_disagree_f"] == [50.0]
     assert out["E"]["exact_disagree_f"] == []
+
+
+def test_differences_within_the_rounding_bound_are_agreement_and_beyond_it_are_not():
+    """Deterministic points (errors at rounding level): a difference within twice the rounding
+    bound gives z = 0; one beyond it keeps its (huge) z."""
+    m = _module()
+    f, tiny = np.array([56.6, 56.8]), np.full(2, 1e-14)
+    old = {"f": f}
+    for name in ("D", "E", "E_x"):
+        old.update({name: np.full(2, 400.0), name + "_err": tiny})
+        old[name + "_round"] = np.full(2, 1e-9)
+    new = dict(old, E=np.array([400.0 + 1.5e-9, 400.0 + 3e-9]))
+    out = m.z_scores(old, new)
+    assert out["E"]["within_rounding_f"] == [56.6]
+    assert out["E"]["z"][0] == 0.0 and out["E"]["z"][1] > 1e4
