@@ -127,6 +127,17 @@ def draw(result: dict, title: str):
     return fig
 
 
+def doc_table(summary: dict) -> str:
+    """The table of a comparison's JSON (``summary``) as docs/benchmarks.md shows it."""
+    rows = ["| quantity | points with abs(z) > 3 | mean z | std z | chi^2 / dof | z = 0 |",
+            "|---|---:|---:|---:|---:|---:|"]  # fmt: skip
+    for name, _, _ in QUANTITIES:
+        q = summary[name]
+        rows.append(f"| {name} | {q['n_beyond_3']} of {summary['n_points']} | {q['mean_z']:+.3f} "
+                    f"| {q['std_z']:.3f} | {q['chi2_per_dof']:.3f} | {q['n_exact']} |")  # fmt: skip
+    return "\n".join(rows)
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("old", type=Path, help="saved S3 scene (.npz)")
@@ -158,6 +169,7 @@ def main() -> None:
     args.out.with_suffix(".json").write_text(
         json.dumps({"provenance": prov, "n_points": result["n_points"], **summary}, indent=1)
     )
+    print(doc_table(json.loads(args.out.with_suffix(".json").read_text())))
     print(f"saved {args.out} and {args.out.with_suffix('.json')}")
 
 

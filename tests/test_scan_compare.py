@@ -66,3 +66,19 @@ def test_differences_within_the_rounding_bound_are_agreement_and_beyond_it_are_n
     out = m.z_scores(old, new)
     assert out["E"]["within_rounding_f"] == [56.6]
     assert out["E"]["z"][0] == 0.0 and out["E"]["z"][1] > 1e4
+
+
+def test_the_docs_table_is_the_committed_comparison():
+    """docs/benchmarks.md shows the table of docs/scan_compare/full_scan_compare.json, which
+    compares the committed full scan with docs/figures/S3_full (recomputed here)."""
+    import json
+
+    m = _module()
+    root = SCRIPT.parents[1]
+    saved = json.loads((root / "docs" / "scan_compare" / "full_scan_compare.json").read_text())
+    assert m.doc_table(saved) in (root / "docs" / "benchmarks.md").read_text()
+    old = m.load_old(root / "docs" / "figures" / "S3_full.npz")
+    new = m.load_new(root / saved["provenance"]["new"]["file"])
+    again = m.z_scores(old, new)
+    for name in ("D", "E", "E_x"):
+        assert {k: v for k, v in again[name].items() if k != "z"} == saved[name]
