@@ -80,5 +80,10 @@ def test_the_docs_table_is_the_committed_comparison():
     old = m.load_old(root / "docs" / "figures" / "S3_full.npz")
     new = m.load_new(root / saved["provenance"]["new"]["file"])
     again = m.z_scores(old, new)
+    below = again["f"] < 65.0
     for name in ("D", "E", "E_x"):
         assert {k: v for k, v in again[name].items() if k != "z"} == saved[name]
+        # the sentences under the table: same trajectories below 65 Hz, noise above
+        z = again[name]["z"]
+        assert np.abs(z[below]).max() < 1.0
+        assert 0.8 < z[~below].std(ddof=1) < 1.2
