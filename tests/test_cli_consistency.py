@@ -6,6 +6,7 @@ import argparse
 import dataclasses
 import io
 import json
+import math
 import subprocess
 import sys
 
@@ -121,6 +122,22 @@ def test_scan_json_uses_the_same_keys(tmp_path, capsys):
     assert not {"D_err", "E_err", "E_x_err"} & set(point)
     assert out["params"]["alpha"] == 0.7 and out["units"]["D"] == "mm^2/s"
     assert point["gamma"] == Params(f=85.0, alpha=0.7).gamma
+    # the cost of each point: its events and time, which sum to the scan's
+    assert point["events"] > 0 and 0 < point["cpu_s"] == out["cpu_s"]
+
+
+def test_scan_json_points_carry_their_own_cost(tmp_path, capsys):
+    argv = ["scan", "--f-start", "84", "--f-stop", "86", "--f-step", "2", "--n", "4",
+            "--t", "1", "--workers", "1", "--out", str(tmp_path / "s")]  # fmt: skip
+    out = _json(capsys, argv)
+    points = out["points"]
+    assert len(points) == 2 and math.isclose(sum(p["cpu_s"] for p in points), out["cpu_s"])
+    # the point's events are those of the ensemble the point ran (seed of the point)
+    from bbdyn.scans.frequency import diffusion_point
+    from bbdyn.scans.runner import point_seed
+
+    again = diffusion_point(86.0, point_seed(0, 86.0), n=4, t=1.0)
+    assert points[1]["events"] == again["events"]
 
 
 def test_classify_positional_frequency_is_a_deprecated_alias(capsys):

@@ -11,7 +11,9 @@ JSON keys: ``out``, ``params`` (A mm, g mm/s^2, alpha, beta, R mm, d mm; f is sc
 ``gamma``, ``D``, ``D_se`` (mm^2/s, the keys of ``bbdyn simulate``), ``D_converged``,
 ``E``, ``E_se``, ``E_x``, ``E_x_se``, ``E_reference`` (kg mm^2/s^2),
 ``energy_stationary``, ``stuck_fraction``, ``collision_rate`` (per particle per s),
-``trapped``.
+``trapped``, ``events`` (all events of the point's run) and ``cpu_s`` (wall time of the
+point in its process, one numba thread: its CPU time on an unloaded core; they sum to
+the top-level ``cpu_s``).
 """
 
 from bbdyn.commands import (
@@ -85,6 +87,7 @@ POINT_KEYS = (
     "stuck_fraction",
     "collision_rate",
     "trapped",
+    "events",
 )
 JSON_KEYS = {"D_err": "D_se", "E_err": "E_se", "E_x_err": "E_x_se"}
 
@@ -141,10 +144,11 @@ def run(args) -> int:
             log.close()
     if args.json:
         rows = [
-            {"f": float(f), **{JSON_KEYS.get(k, k): scan[k][i].item() for k in POINT_KEYS}}
+            {"f": float(f), **{JSON_KEYS.get(k, k): scan[k][i].item() for k in POINT_KEYS},
+             "cpu_s": scan.meta["points"][i]["wall_s"]}
             for i, f in enumerate(scan.values)
-        ]
-        wall = sum(p["wall_s"] for p in scan.meta["points"])
+        ]  # fmt: skip
+        wall = sum(row["cpu_s"] for row in rows)
         params = {**model_values(args), "g": PARAM_DEFAULTS["g"]}  # g is not an option here
         out = {"out": args.out, "params": params, "cpu_s": wall}
         units = units_of({**out, **rows[0]} if rows else out)
