@@ -95,3 +95,17 @@ def test_unknown_setting_is_refused():
     """--impacts (n_impacts) means nothing to the cost model: refused, not ignored."""
     with pytest.raises(ValueError, match="n_impacts"):
         sc.compute({**SETTINGS, "n_impacts": 5}, timer=lambda f, n, t: 1.0)
+
+
+def test_measured_table_sums_each_band_of_a_real_scan():
+    """Per-point times of a scan grid with a known cost (1 s per point, 5 s at 50 Hz): every
+    band sums its points, the shares add to 100 %, a band without points says so."""
+    grid = frequency_grid(49.8, 95.0, 0.2)
+    points = [{"f": float(f), "cpu_s": 5.0 if abs(f - 50.0) < 1e-9 else 1.0} for f in grid]
+    rows = sc.measured_table(points).splitlines()
+    assert rows[2] == "| 49.8-53 | 21 | 9% | 17 | 5.0 s at 50 Hz |"  # 16 x 1 s + 5 s, of 231 s
+    assert rows[-1] == f"| all | {grid.size + 4} | 100% | {grid.size} | |"
+    counts = [int(r.split("|")[4]) for r in rows[2:-1]]
+    assert sum(counts) == grid.size
+    empty = sc.measured_table(points[:3]).splitlines()
+    assert empty[3] == "| 53.2-57.4 | 0 | 0% | 0 | - |"

@@ -36,7 +36,8 @@ import numpy as np
 from bbdyn.reference.timing import single_thread
 from bbdyn.results import Result, make_meta
 
-__all__ = ["BANDS", "FULL", "QUICK", "compute", "predict", "sample_frequencies", "table"]
+__all__ = ["BANDS", "FULL", "QUICK", "compute", "measured_table", "predict", "sample_frequencies",
+           "table"]  # fmt: skip
 
 #: Cost bands of the scan (Hz, grid points included at both ends): different regimes.
 BANDS = ((49.8, 53.0), (53.2, 57.4), (57.6, 65.0), (65.2, 80.0), (80.2, 95.0))
@@ -227,6 +228,23 @@ def table(result: ScanCostResult) -> str:
     lines.append("samples (Hz: CPU µs per particle-second):")
     pairs = zip(result["f"], result["cost"], strict=True)
     lines.append("  ".join(f"{f:.1f}: {1e6 * c:.3g}" for f, c in pairs))
+    return "\n".join(lines)
+
+
+def measured_table(points: list[dict], bands=BANDS) -> str:
+    """Where a real scan's time went: per band of ``bands``, the summed ``cpu_s`` of the
+    points of ``bbdyn scan --json`` (``points``: dicts with ``f`` in Hz and ``cpu_s``), its
+    share, the number of points and the costliest point (markdown table)."""
+    f = np.array([p["f"] for p in points], dtype=float)
+    cpu = np.array([p["cpu_s"] for p in points], dtype=float)
+    lines = ["| band (Hz) | CPU s | share | points | costliest point |", "|---|---:|---:|---:|---|"]
+    for lo, hi in bands:
+        sel = (f >= lo - 1e-9) & (f <= hi + 1e-9)
+        top = int(np.argmax(np.where(sel, cpu, -1.0)))
+        costliest = f"{cpu[top]:.1f} s at {f[top]:g} Hz" if sel.any() else "-"
+        lines.append(f"| {lo:g}-{hi:g} | {cpu[sel].sum():.0f} | {cpu[sel].sum() / cpu.sum():.0%} "
+                     f"| {int(sel.sum())} | {costliest} |")  # fmt: skip
+    lines.append(f"| all | {cpu.sum():.0f} | 100% | {f.size} | |")
     return "\n".join(lines)
 
 
