@@ -75,8 +75,14 @@ def test_the_docs_table_is_the_committed_comparison():
 
     m = _module()
     root = SCRIPT.parents[1]
+    from bbdyn.scenes.b2_scan_cost import measured_table
+
     saved = json.loads((root / "docs" / "scan_compare" / "full_scan_compare.json").read_text())
-    assert m.doc_table(saved) in (root / "docs" / "benchmarks.md").read_text()
+    text = (root / "docs" / "benchmarks.md").read_text()
+    assert m.doc_table(saved) in text
+    scan = json.loads((root / saved["provenance"]["new"]["file"]).read_text())
+    assert measured_table(scan["points"]) in text
+    assert f"{scan['cpu_s']:.0f} s of CPU time" in " ".join(text.split())
     old = m.load_old(root / "docs" / "figures" / "S3_full.npz")
     new = m.load_new(root / saved["provenance"]["new"]["file"])
     again = m.z_scores(old, new)
