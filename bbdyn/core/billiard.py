@@ -429,9 +429,17 @@ def chatter_sum(phase, xi, S, vn, vt, g_eff, kp):
     eps = vt * vt / (g_eff * S)
     g_n = g0 * (1.0 - eps)
     tau0 = 2.0 * vn / g0
+    aw3 = A * w * w * w
+    cos_abs = abs(math.cos(phase))
+    budget = CHATTER_REL_TOL * kp.period * g_n
+    # Most impacts fail already with the series' first term, tau_inf >= tau_0 / (1 - alpha)
+    # (every test below grows with tau_inf): refuse them before summing the series.
+    tau_low = tau0 * (1.0 / (1.0 - alpha))
+    drive_low = (aw3 * cos_abs + aw3 * w * tau_low) * tau_low
+    if not (aw3 * tau_low < 0.5 * g_eff and drive_low * tau_low <= budget):
+        return math.inf, 0.0
     F, _, rest_F = shrinking_series(eps, alpha, beta * beta)
     tau_inf = tau0 * F
-    aw3 = A * w * w * w
     if not aw3 * tau_inf < 0.5 * g_eff:
         return math.inf, 0.0
     ab = alpha * beta
@@ -440,11 +448,11 @@ def chatter_sum(phase, xi, S, vn, vt, g_eff, kp):
     H, _, rest_H = shrinking_series(eps, ab, beta * beta)
     ds = vt * tau0 * H + g_t * tau0 * tau0 * (ab / (one_a2 * (1.0 - ab)) + 0.5 / one_a2)
     ds_bound = abs(ds) + abs(vt) * tau0 * rest_H
-    drive = (aw3 * abs(math.cos(phase)) + aw3 * w * tau_inf) * tau_inf
+    drive = (aw3 * cos_abs + aw3 * w * tau_inf) * tau_inf
     gained = (2.0 * abs(vt) * abs(g_t) + g_t * g_t * tau_inf) * tau_inf / R
     curvature = eps * g0 * (vn * vn / g_n + (vt * tau0) ** 2 / R) / R
     pull = drive + g_eff * ds_bound / R + gained + curvature
-    if not pull * tau_inf + tau0 * rest_F * g_n <= CHATTER_REL_TOL * kp.period * g_n:
+    if not pull * tau_inf + tau0 * rest_F * g_n <= budget:
         return math.inf, 0.0
     return tau_inf, ds
 
