@@ -9,15 +9,14 @@ which for two independent runs of the same physics is close to a standard normal
 few driving periods, so there they are independent samples, while trapped and periodic
 points repeat).  Where every particle ends on one periodic orbit the error over particles
 is itself at the level of rounding (E_err / E ~ 1e-16) and z says nothing: an energy
-difference within the rounding bound of the energy integrals (``_drift_rounding``'s bound
-in ``bbdyn.scans.frequency``: ``(events + 1) (OBS_INTEGRAL_REL_TOL + SUM_ROUND_PER_TERM)
-(|E| + 2 g A)`` per scan, events per particle) counts as agreement (z = 0) and is
-reported.  Points where both errors are zero (trapped: D = 0 exactly) count as z = 0 if
-the values agree and are reported otherwise.  Prints, per quantity, the fraction of
-points with |z| > 3 (0.27 % for a standard normal), the mean and standard deviation of z
-and chi^2 / dof; draws z against f and its histogram against the standard normal
-density, and saves the figure with the numbers beside it (``.json``).  The PNG records
-the git state of the tree that ran the comparison and both inputs.
+difference within twice the rounding bound of the energy averages
+(``bbdyn.scans.frequency.average_rounding``, with the events per particle) counts as
+agreement (z = 0) and is reported.  Points where both errors are zero (trapped: D = 0
+exactly) count as z = 0 if the values agree and are reported otherwise.  Prints, per
+quantity, the fraction of points with |z| > 3 (0.27 % for a standard normal), the mean and
+standard deviation of z and chi^2 / dof; draws z against f and its histogram against the
+standard normal density, and saves the figure with the numbers beside it (``.json``).
+The PNG records the git state of the tree that ran the comparison and both inputs.
 
 Usage::
 
@@ -50,14 +49,12 @@ def load_old(path: Path) -> dict[str, np.ndarray]:
 
 def rounding_bounds(scan: dict, events: np.ndarray, g: float, A: float) -> dict:
     """Bounds of the rounding of the energy averages of ``scan`` (same units), from the
-    events per particle: ``(events + 1) (OBS_INTEGRAL_REL_TOL + SUM_ROUND_PER_TERM)``
-    times the average of the integrand's absolute value (``|E| + 2 g A`` for E, whose
-    potential part g y >= -g A; ``|E_x|``); D has none."""
-    from bbdyn.core.tolerances import OBS_INTEGRAL_REL_TOL, SUM_ROUND_PER_TERM
+    events per particle (``bbdyn.scans.frequency.average_rounding``); D has none."""
+    from bbdyn.scans.frequency import average_rounding, energy_scale
 
-    per_term = (events + 1.0) * (OBS_INTEGRAL_REL_TOL + SUM_ROUND_PER_TERM)
-    return {"D_round": np.zeros_like(events), "E_round": per_term * (np.abs(scan["E"]) + 2 * g * A),
-            "E_x_round": per_term * np.abs(scan["E_x"])}  # fmt: skip
+    return {"D_round": np.zeros_like(events),
+            "E_round": average_rounding(events, energy_scale(scan["E"], g, A)),
+            "E_x_round": average_rounding(events, scan["E_x"])}  # fmt: skip
 
 
 def load_new(path: Path) -> dict[str, np.ndarray]:

@@ -38,10 +38,12 @@ from bbdyn.scans.progress import rough_duration
 __all__ = [
     "MAX_POINTS",
     "P_FLAG",
+    "average_rounding",
     "check_scan_size",
     "cpu_estimate",
     "diffusion_fit",
     "diffusion_point",
+    "energy_scale",
     "frequency_grid",
     "frequency_scan",
     "grid_size",
@@ -325,10 +327,9 @@ def _energy_drift(res, params: Params) -> dict[str, float]:
     if np.count_nonzero(ok) < 2 or split <= p0:
         out = {name: math.nan for name in ("E_drift", "E_drift_err", "E_x_drift")}
         return {**out, "E_x_drift_err": math.nan, "energy_stationary": 1}
-    floor_low = 2.0 * params.g * params.A  # |g y| <= g y + 2 g A: y >= -A, the floor's lowest
     out: dict[str, float] = {}
     stationary = True
-    for name, scale in (("E", res["E"] + floor_low), ("E_x", res["E_x"])):
+    for name, scale in (("E", energy_scale(res["E"], params.g, params.A)), ("E_x", res["E_x"])):
         halves = res[name + "_halves"][ok]
         drift, err = _mean_err(halves[:, 1] - halves[:, 0])
         out[name + "_drift"], out[name + "_drift_err"] = drift, err
@@ -338,23 +339,38 @@ def _energy_drift(res, params: Params) -> dict[str, float]:
     return out
 
 
-def _drift_rounding(events: np.ndarray, scale: np.ndarray, cuts) -> float:
-    """Bound on the rounding of a mean late-minus-early drift (units of ``scale``).
+def energy_scale(E, g: float, A: float):
+    """``E + 2 g A`` (kg mm^2/s^2): the time average of the absolute value of the energy's
+    integrand, whose only negative part, the potential g y, is at least -g A (y >= -A)."""
+    return E + 2.0 * g * A
 
-    A particle's integral over the window, or its early half, is a sum of at most
-    ``events + 1`` closed-form integrals over intervals (fast-forwarded cycles counted
-    as their events), each exact to ``OBS_INTEGRAL_REL_TOL`` and added with
-    ``SUM_ROUND_PER_TERM`` (``bbdyn.core.tolerances``) relative to the time average of
-    the integrand's absolute value, ``scale`` (per particle).  The early average
-    carries one such error, the late one (whole minus early) those of the whole window
-    and the early half, over the late half's length; ``cuts = (p0, split, p1)`` periods.
+
+def average_rounding(events, scale):
+    """Bound on the rounding of a time average over the energy window (units of ``scale``).
+
+    A particle's integral over the window is a sum of at most ``events + 1`` closed-form
+    integrals over intervals (fast-forwarded cycles counted as their events), each exact
+    to ``OBS_INTEGRAL_REL_TOL`` and added with ``SUM_ROUND_PER_TERM``
+    (``bbdyn.core.tolerances``) relative to the time average of the integrand's absolute
+    value, ``scale`` (``energy_scale`` for E, E_x itself); per particle, or per scan point
+    with ``events`` per particle.
     """
     from bbdyn.core.tolerances import OBS_INTEGRAL_REL_TOL, SUM_ROUND_PER_TERM
 
+    per_term = OBS_INTEGRAL_REL_TOL + SUM_ROUND_PER_TERM
+    return (events + 1.0) * per_term * np.abs(scale)
+
+
+def _drift_rounding(events: np.ndarray, scale: np.ndarray, cuts) -> float:
+    """Bound on the rounding of a mean late-minus-early drift (units of ``scale``).
+
+    The early average carries one ``average_rounding``, the late one (whole minus early)
+    those of the whole window and the early half, over the late half's length;
+    ``cuts = (p0, split, p1)`` periods.
+    """
     p0, split, p1 = cuts
     gain = 1.0 + ((p1 - p0) + (split - p0)) / (p1 - split)
-    per_term = OBS_INTEGRAL_REL_TOL + SUM_ROUND_PER_TERM
-    return float(np.mean((events + 1.0) * per_term * np.abs(scale)) * gain)
+    return float(np.mean(average_rounding(events, scale)) * gain)
 
 
 def _model_changes(model: dict) -> dict[str, float]:
