@@ -99,7 +99,7 @@ def test_billiard_kernel_chatter_sum_is_the_derived_sum(derivation):
         tau_0 = 10.0 ** rng.uniform(-16, -11)
         vt = rng.uniform(-1.0, 1.0) * 0.3 * math.sqrt(g_eff * S)  # eps up to 0.09
         vn = g_eff * S / kp.R * tau_0 / 2
-        got = chatter_sum(phase, xi, S, vn, vt, g_eff, kp)
+        got = chatter_sum(math.cos(phase), xi, S, vn, vt, g_eff, kp)
         if got[0] == math.inf:
             return None
         eps = vt * vt / (g_eff * S)

@@ -201,12 +201,21 @@ def flight_step(G, Gp, m, M, K, cubic):
 
 @njit(cache=True)
 def billiard_flight_rule(phase, xi0, vx, vyrel, kp, cubic):
+    """``flight_search`` from the phase alone (its sine and cosine computed here)."""
+    return flight_search(phase, math.sin(phase), math.cos(phase), xi0, vx, vyrel, kp, cubic)
+
+
+@njit(cache=True)
+def flight_search(phase, sn, cs, xi0, vx, vyrel, kp, cubic):
     """First contact with the floor after an event (see the module docstring).
 
     Parameters
     ----------
     phase : float
         Phase w t (rad) of the event that starts the flight.
+    sn, cs : float
+        ``math.sin(phase)`` and ``math.cos(phase)``: the event loop computes them once per
+        event and shares them with ``collide`` and the observables (``billiard_event_trig``).
     xi0, vx, vyrel : float
         Local coordinate (mm) and velocity relative to the floor (mm/s) just
         after it; the velocity must leave the arc (``V . n > 0``), or may be
@@ -250,8 +259,6 @@ def billiard_flight_rule(phase, xi0, vx, vyrel, kp, cubic):
         k_base = -1.0
     direction = 1.0 if vx > 0.0 else -1.0
     S0 = arc_root(xi0, kp)
-    sn = math.sin(phase)
-    cs = math.cos(phase)
 
     tau = 0.0
     k = 0.0
@@ -362,7 +369,7 @@ def billiard_flight(phase, xi0, vx, vyrel, kp):
 
     Returns ``(tau, k, xi, vyrel_minus, n_steps, status)`` (see ``billiard_flight_rule``).
     """
-    return billiard_flight_rule(phase, xi0, vx, vyrel, kp, True)
+    return flight_search(phase, math.sin(phase), math.cos(phase), xi0, vx, vyrel, kp, True)
 
 
 @njit(cache=True, inline="always")
@@ -390,15 +397,16 @@ def shrinking_series(eps, q, r):
 
 
 @njit(cache=True, inline="always")
-def chatter_sum(phase, xi, S, vn, vt, g_eff, kp):
+def chatter_sum(cs, xi, S, vn, vt, g_eff, kp):
     """Closed-form sum of a chattering sequence on an arc (derivations/chattering.py).
 
-    After an impact with small normal velocity ``vn`` (mm/s) at ``xi`` (``S = sqrt(R^2 -
-    xi^2)``) the particle hops in the normal pull ``g0 = g_eff S / R`` of the floor-frame
-    gravity, less the centrifugal term of the convex arc.  The tangential velocity is
-    multiplied by beta at each bounce, so hop k feels ``g0 (1 - eps beta^(2k))``, ``eps =
-    vt^2 / (g_eff S)``, and lasts ``tau_k = alpha^k tau_0 / (1 - eps beta^(2k))``, ``tau_0 =
-    2 vn / g0``.  Expanding in eps and summing over k first::
+    After an impact at a phase with cosine ``cs``, with small normal velocity ``vn``
+    (mm/s) at ``xi`` (``S = sqrt(R^2 - xi^2)``) the particle hops in the normal pull
+    ``g0 = g_eff S / R`` of the floor-frame gravity, less the centrifugal term of the
+    convex arc.  The tangential velocity is multiplied by beta at each bounce, so hop k
+    feels ``g0 (1 - eps beta^(2k))``, ``eps = vt^2 / (g_eff S)``, and lasts ``tau_k =
+    alpha^k tau_0 / (1 - eps beta^(2k))``, ``tau_0 = 2 vn / g0``.  Expanding in eps and
+    summing over k first::
 
         tau_inf = tau_0 sum_m eps^m / (1 - alpha beta^(2m)),
         ds = vt tau_0 sum_m eps^m / (1 - alpha beta^(2m+1))
@@ -430,7 +438,7 @@ def chatter_sum(phase, xi, S, vn, vt, g_eff, kp):
     g_n = g0 * (1.0 - eps)
     tau0 = 2.0 * vn / g0
     aw3 = A * w * w * w
-    cos_abs = abs(math.cos(phase))
+    cos_abs = abs(cs)
     budget = CHATTER_REL_TOL * kp.period * g_n
     # Most impacts fail already with the series' first term, tau_inf >= tau_0 / (1 - alpha)
     # (every test below grows with tau_inf): refuse them before summing the series.
@@ -521,29 +529,37 @@ def lands_at_once(periods, phase, vyrel, g_eff, kp):
 
 @njit(cache=True)
 def collide(periods, phase, tile, xi, vx, vyrel, kp):
+    """``collide_trig`` from the phase alone; returns its event state without the trig."""
+    out = collide_trig(periods, phase, math.sin(phase), math.cos(phase), tile, xi, vx, vyrel, kp)
+    return out[:8]
+
+
+@njit(cache=True)
+def collide_trig(periods, phase, sn, cs, tile, xi, vx, vyrel, kp):
     """Apply the collision at ``(tile, xi)`` and decide whether chattering ends in a stick.
 
-    A contact within ``WEDGE_TOL * d`` of a wedge is put on the wedge and
-    treated by ``wedge_reflect``; a collapse into the wedge (``wedge_reflect``
-    gives up, or ``lands_at_once``) is a STICK there.  Returns the event state
-    ``(periods, phase, tile, xi, vx, vyrel, kind, status)``.
+    ``sn, cs`` are ``math.sin(phase)`` and ``math.cos(phase)`` of the contact.  A contact
+    within ``WEDGE_TOL * d`` of a wedge is put on the wedge and treated by
+    ``wedge_reflect``; a collapse into the wedge (``wedge_reflect`` gives up, or
+    ``lands_at_once``) is a STICK there.  Returns the event state ``(periods, phase, tile,
+    xi, vx, vyrel, kind, status)`` and the sine and cosine of its phase.
     """
     half = 0.5 * kp.d
     xi = snap_to_wedge(xi, kp)
     vx, vyrel, vn, vt = bounce(xi, vx, vyrel, kp)
     tile, xi, vx, vyrel, vn, vt, ok = wedge_reflect(tile, xi, vx, vyrel, vn, vt, kp)
-    g_eff = kp.g + kp.A * kp.w * kp.w * math.sin(phase)
+    g_eff = kp.g + kp.A * kp.w * kp.w * sn
     if not ok or (abs(xi) == half and lands_at_once(periods, phase, vyrel, g_eff, kp)):
-        return periods, phase, tile, xi, 0.0, 0.0, STICK, OK
+        return periods, phase, tile, xi, 0.0, 0.0, STICK, OK, sn, cs
     if not (math.isfinite(vx) and math.isfinite(vyrel)):
-        return periods, phase, tile, xi, vx, vyrel, IMPACT, NON_FINITE
+        return periods, phase, tile, xi, vx, vyrel, IMPACT, NON_FINITE, sn, cs
     if g_eff > 0.0 and kp.beta < 1.0:
         S = arc_root(xi, kp)
         g_n = (g_eff * S - vt * vt) / kp.R
         if g_n > 0.0:
             if vn <= 0.0:  # 0, or a rounding of 0 after a tangent wedge reflection
-                return periods, phase, tile, xi, 0.0, 0.0, STICK, OK
-            tau_inf, ds = chatter_sum(phase, xi, S, vn, vt, g_eff, kp)
+                return periods, phase, tile, xi, 0.0, 0.0, STICK, OK, sn, cs
+            tau_inf, ds = chatter_sum(cs, xi, S, vn, vt, g_eff, kp)
             if tau_inf < math.inf:
                 # Rotate the contact point by the angle ds / R along the arc; a
                 # drift past the wedge ends in the wedge (it is below 1e-9 mm).
@@ -551,18 +567,38 @@ def collide(periods, phase, tile, xi, vx, vyrel, kp):
                 s = math.sin(ds / kp.R)
                 xi = min(max(xi * c + S * s, -half), half)
                 periods, phase = advance_phase(periods, phase, kp.w * tau_inf)
-                return periods, phase, tile, xi, 0.0, 0.0, STICK, OK
-    return periods, phase, tile, xi, vx, vyrel, IMPACT, OK
+                sn, cs = math.sin(phase), math.cos(phase)
+                return periods, phase, tile, xi, 0.0, 0.0, STICK, OK, sn, cs
+    return periods, phase, tile, xi, vx, vyrel, IMPACT, OK, sn, cs
 
 
 @njit(cache=True)
 def billiard_event_rule(periods, phase, tile, xi, vx, vyrel, kind, kp, cubic):
+    """``event_search`` from the phase alone; returns its event state without the trig.
+
+    >>> from bbdyn import Params
+    >>> kp = Params(f=58.0).kernel()
+    >>> ev = billiard_event_rule(0.0, 0.0, 0.0, 0.3, 10.0, 50.0, IMPACT, kp, True)
+    >>> ev[-1] == OK and ev[0] + ev[1] > 0.0
+    True
+    """
+    out = event_search(
+        periods, phase, math.sin(phase), math.cos(phase), tile, xi, vx, vyrel, kind, kp, cubic
+    )
+    return out[:8]
+
+
+@njit(cache=True)
+def event_search(periods, phase, sn, cs, tile, xi, vx, vyrel, kind, kp, cubic):
     """Advance the billiard from one event to the next (docs/model.md §2).
 
     Parameters
     ----------
     periods, phase : float
         Time of the current event: whole driving periods and phase w t mod 2 pi (rad).
+    sn, cs : float
+        ``math.sin(phase)`` and ``math.cos(phase)`` (computed once per event: the flight
+        and ``collide_trig`` use them, and so do the observables of the event loop).
     tile, xi : float
         Tile index (integer-valued) and local coordinate (mm) of the particle, on the floor.
     vx, vyrel : float
@@ -571,36 +607,31 @@ def billiard_event_rule(periods, phase, tile, xi, vx, vyrel, kind, kp, cubic):
         IMPACT, STICK or RELEASE.
     kp : KernelParams
     cubic : bool
-        Step rule of the first-contact search (``billiard_flight_rule``).
+        Step rule of the first-contact search (``flight_search``).
 
     Returns
     -------
     tuple
-        ``(periods, phase, tile, xi, vx, vyrel, kind, status)`` of the next event.
+        ``(periods, phase, tile, xi, vx, vyrel, kind, status, sn, cs)`` of the next event
+        (``sn, cs`` the sine and cosine of its phase).
         A stuck particle is released with the floor's velocity at ``theta_r = pi +
         asin(1/Gamma)``, or at once if it stuck inside the release window (a wedge
         collapse while the floor falls faster than g; ``stick_release``); for
         Gamma <= 1 the state is returned unchanged with ``STUCK_FOREVER``.
-
-    Examples
-    --------
-    >>> from bbdyn import Params
-    >>> kp = Params(f=58.0).kernel()
-    >>> ev = billiard_event_rule(0.0, 0.0, 0.0, 0.3, 10.0, 50.0, IMPACT, kp, True)
-    >>> ev[-1] == OK and ev[0] + ev[1] > 0.0
-    True
     """
     if kind == STICK:
         periods_r, phase_r, status = stick_release(periods, phase, kp.gamma)
         if status != OK:
-            return periods, phase, tile, xi, 0.0, 0.0, STICK, status
-        return periods_r, phase_r, tile, xi, 0.0, 0.0, RELEASE, OK
+            return periods, phase, tile, xi, 0.0, 0.0, STICK, status, sn, cs
+        sn_r, cs_r = math.sin(phase_r), math.cos(phase_r)
+        return periods_r, phase_r, tile, xi, 0.0, 0.0, RELEASE, OK, sn_r, cs_r
 
-    tau, k, xi_c, vyrel_minus, _, status = billiard_flight_rule(phase, xi, vx, vyrel, kp, cubic)
+    tau, k, xi_c, vyrel_minus, _, status = flight_search(phase, sn, cs, xi, vx, vyrel, kp, cubic)
     if status != OK:
-        return periods, phase, tile, xi, vx, vyrel, kind, status
+        return periods, phase, tile, xi, vx, vyrel, kind, status, sn, cs
     periods, phase = advance_phase(periods, phase, kp.w * tau)
-    return collide(periods, phase, tile + k, xi_c, vx, vyrel_minus, kp)
+    sn_c, cs_c = math.sin(phase), math.cos(phase)
+    return collide_trig(periods, phase, sn_c, cs_c, tile + k, xi_c, vx, vyrel_minus, kp)
 
 
 @njit(cache=True)
@@ -610,6 +641,17 @@ def billiard_event(periods, phase, tile, xi, vx, vyrel, kind, kp):
     Returns ``(periods, phase, tile, xi, vx, vyrel, kind, status)`` of the next event.
     """
     return billiard_event_rule(periods, phase, tile, xi, vx, vyrel, kind, kp, True)
+
+
+@njit(cache=True)
+def billiard_event_trig(periods, phase, sn, cs, tile, xi, vx, vyrel, kind, kp):
+    """``billiard_event`` for a loop that carries ``sn, cs = sin, cos(phase)`` along.
+
+    Returns ``(periods, phase, tile, xi, vx, vyrel, kind, status, sn, cs)`` of the next
+    event; bitwise the state of ``billiard_event`` (the same ``math.sin``, ``math.cos``
+    values, computed once per event instead of up to five times).
+    """
+    return event_search(periods, phase, sn, cs, tile, xi, vx, vyrel, kind, kp, True)
 
 
 @njit(cache=True)

@@ -43,7 +43,7 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit, prange
 
-from bbdyn.core.billiard import billiard_event
+from bbdyn.core.billiard import billiard_event, billiard_event_trig
 from bbdyn.core.features import Collision, block_of, feature_collision, feature_finish
 from bbdyn.core.floor import arc_root, floor_height_rel, normal_velocity, xi_from_arc_length
 from bbdyn.core.observables import (
@@ -54,7 +54,7 @@ from bbdyn.core.observables import (
     time_between,
     trap_of,
 )
-from bbdyn.core.plate import plate_height, plate_velocity
+from bbdyn.core.plate import plate_height_sin, plate_velocity_cos
 from bbdyn.core.status import IMPACT, OK, RELEASE, STICK, STUCK_FOREVER
 
 #: Bit flags selecting the observables an ensemble computes.
@@ -202,12 +202,13 @@ def initial_states(ics, kp, states):
 # Inlined into the event loop, as integrate_blocks: called with the Event tuple, the two
 # calls cost about 2 % of the ensemble's speed (python benchmarks/kernel_buffers.py).
 @njit(cache=True, inline="always")
-def accumulate_interval(acc, j, ev, b, lo, hi, kp, energy):
+def accumulate_interval(acc, j, ev, trig, b, lo, hi, kp, energy):
     """Add to row ``j`` of ``acc`` the integrals over ``[lo, hi]`` of the motion since ``ev``.
 
-    ``ev`` is an ``Event`` (a flight follows it, or the floor is ridden after a STICK);
-    ``lo`` and ``hi`` are ``(periods, phase)`` pairs inside the interval; ``b`` is the
-    height ``b(xi)`` of the event point above the wedges (mm).  Columns ``ACC_*``: the
+    ``ev`` is an ``Event`` (a flight follows it, or the floor is ridden after a STICK),
+    ``trig`` the sine and cosine of its phase; ``lo`` and ``hi`` are ``(periods, phase)``
+    pairs inside the interval; ``b`` is the height ``b(xi)`` of the event point above the
+    wedges (mm).  Columns ``ACC_*``: the
     stuck time (s) always, the energy integrals (kg mm^2/s) with ``energy``.
     """
     w, period = kp.w, kp.period
@@ -222,8 +223,8 @@ def accumulate_interval(acc, j, ev, b, lo, hi, kp, energy):
     if energy:
         ta = time_between(lo[0], lo[1], ev.periods, ev.phase, w, period)
         tb = time_between(hi[0], hi[1], ev.periods, ev.phase, w, period)
-        y0 = plate_height(kp.A, ev.phase) + b
-        vy0 = ev.vyrel + plate_velocity(kp.A, w, ev.phase)
+        y0 = plate_height_sin(kp.A, trig[0]) + b
+        vy0 = ev.vyrel + plate_velocity_cos(kp.A, w, trig[1])
         I_Ex, I_Ey, I_pot = flight_integrals(ev.vx, vy0, y0, kp.g, ta, tb)
         acc[j, ACC_EX] += I_Ex
         acc[j, ACC_EY] += I_Ey
@@ -232,12 +233,13 @@ def accumulate_interval(acc, j, ev, b, lo, hi, kp, energy):
 
 # Inlined into the event loop (see accumulate_interval).
 @njit(cache=True, inline="always")
-def integrate_blocks(acc, ev, hi, window, kp, energy):
+def integrate_blocks(acc, ev, trig, hi, window, kp, energy):
     """Integrate the motion since the event ``ev`` up to ``hi``, per block of the window.
 
-    ``hi`` is a ``(periods, phase)`` pair; the part of ``[ev, hi]`` inside the ``window``
-    (a ``Window``) is cut at the block boundaries ``p0 + j L`` (phase 0) and added to row
-    ``j`` of ``acc`` (shape (nb, >= 4)) by ``accumulate_interval``.
+    ``trig`` is ``(math.sin, math.cos)`` of the event's phase; ``hi`` a ``(periods,
+    phase)`` pair; the part of ``[ev, hi]`` inside the ``window`` (a ``Window``) is cut at
+    the block boundaries ``p0 + j L`` (phase 0) and added to row ``j`` of ``acc`` (shape
+    (nb, >= 4)) by ``accumulate_interval``.
     """
     p0, L, nb = window.p0, window.L, window.nb
     p1 = p0 + nb * L
@@ -258,11 +260,11 @@ def integrate_blocks(acc, ev, hi, window, kp, energy):
         if is_before(p0 + (j + 1) * L, 0.0, z_p, z_ph):
             z_p, z_ph = p0 + (j + 1) * L, 0.0
         if is_before(a_p, a_ph, z_p, z_ph):
-            accumulate_interval(acc, j, ev, b, (a_p, a_ph), (z_p, z_ph), kp, energy)
+            accumulate_interval(acc, j, ev, trig, b, (a_p, a_ph), (z_p, z_ph), kp, energy)
 
 
 @njit(cache=True)
-def split_row(acc, ev, hi, p0, split, kp, energy):
+def split_row(acc, ev, trig, hi, p0, split, kp, energy):
     """Row 1 of ``acc`` := row 0 plus the part in ``[p0, split]`` of the motion ``ev`` to ``hi``.
 
     Called once per particle, for the interval from the event ``ev`` (before ``split``
@@ -274,7 +276,7 @@ def split_row(acc, ev, hi, p0, split, kp, energy):
     for c in range(4):
         acc[1, c] = acc[0, c]
     if p0 < split:
-        integrate_blocks(acc[1:], ev, hi, Window(p0, split - p0, 1), kp, energy)
+        integrate_blocks(acc[1:], ev, trig, hi, Window(p0, split - p0, 1), kp, energy)
 
 
 @njit(cache=True)
@@ -298,7 +300,8 @@ def integrate_to_split(acc, ev, p0, split, kp, energy):
         if nxt[7] == OK and is_before(nxt[0], nxt[1], split, 0.0):
             hi_p, hi_ph = nxt[0], nxt[1]
         ev_now = Event(periods, phase, tile, xi, vx, vyrel, kind)
-        integrate_blocks(rows, ev_now, (hi_p, hi_ph), half, kp, energy)
+        trig = (math.sin(phase), math.cos(phase))
+        integrate_blocks(rows, ev_now, trig, (hi_p, hi_ph), half, kp, energy)
         periods, phase, tile, xi, vx, vyrel = hi_p, hi_ph, nxt[2], nxt[3], nxt[4], nxt[5]
         kind = nxt[6]
 
@@ -496,12 +499,13 @@ def particle_loop(carry, i, budget, kp, times, out, obs, th):
     n_samples = sample_periods.shape[0]
     status = OK
     n_done = 0
+    trig = (math.sin(phase), math.cos(phase))  # then carried from event to event
     while True:
         if n_done == budget:
             status = RUNNING
             break
         n_done += 1
-        nxt = billiard_event(periods, phase, tile, xi, vx, vyrel, kind, kp)
+        nxt = billiard_event_trig(periods, phase, trig[0], trig[1], tile, xi, vx, vyrel, kind, kp)
         status = nxt[7]
         if status == STUCK_FOREVER:
             n_periods, n_phase = math.inf, 0.0
@@ -517,8 +521,8 @@ def particle_loop(carry, i, budget, kp, times, out, obs, th):
         if obs is not None:  # the interval that passes the split (once): row 1 of the blocks
             hi_p, hi_ph = seg_end
             if is_before(periods, phase, split, 0.0) and not is_before(hi_p, hi_ph, split, 0.0):
-                split_row(acc, ev, seg_end, p0, split, kp, energy)
-        integrate_blocks(acc, ev, seg_end, window, kp, energy)
+                split_row(acc, ev, trig, seg_end, p0, split, kp, energy)
+        integrate_blocks(acc, ev, trig, seg_end, window, kp, energy)
 
         # positions at the sample times inside this interval (all remaining ones if last)
         if do_disp:
@@ -537,6 +541,7 @@ def particle_loop(carry, i, budget, kp, times, out, obs, th):
 
         periods, phase, tile, xi, vx, vyrel = nxt[0], nxt[1], nxt[2], nxt[3], nxt[4], nxt[5]
         kind = nxt[6]
+        trig = (nxt[8], nxt[9])
         if kind == RELEASE:
             if do_ff:
                 bound = (end_p, end_ph)

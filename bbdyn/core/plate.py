@@ -126,13 +126,25 @@ def plate_dvel(A, w, s0, c0, sin_x, sin_half):
 @njit(cache=True, inline="always", error_model="numpy")
 def plate_velocity(A, w, phase):
     """u = -A w cos(phase) (mm/s)."""
-    return -A * w * math.cos(phase)
+    return plate_velocity_cos(A, w, math.cos(phase))
+
+
+@njit(cache=True, inline="always", error_model="numpy")
+def plate_velocity_cos(A, w, cos_phase):
+    """u (mm/s) from ``cos_phase = cos(phase)`` already computed."""
+    return -A * w * cos_phase
 
 
 @njit(cache=True, inline="always", error_model="numpy")
 def plate_height(A, phase):
     """y_p = -A sin(phase) (mm)."""
-    return -A * math.sin(phase)
+    return plate_height_sin(A, math.sin(phase))
+
+
+@njit(cache=True, inline="always", error_model="numpy")
+def plate_height_sin(A, sin_phase):
+    """y_p (mm) from ``sin_phase = sin(phase)`` already computed."""
+    return -A * sin_phase
 
 
 @njit(cache=True, inline="always", error_model="numpy")
