@@ -91,6 +91,9 @@ from bbdyn.core.tolerances import (
     ROOT_MAX_STEPS,
     ROOT_STEP_REL,
     SERIES_MAX_TERMS,
+    TINY_HOP_MAX_SPAN,
+    TINY_HOP_NEWTON_MAX,
+    TINY_HOP_NEWTON_REL,
     WEDGE_MAX_REFLECTIONS,
     WEDGE_TOL,
 )
@@ -199,6 +202,97 @@ def flight_step(G, Gp, m, M, K, cubic):
     return cubic_safe_step(G, Gp, m, M, K) if cubic else safe_step(G, Gp, M)
 
 
+@njit(cache=True, inline="always")
+def tiny_hop(sn, cs, xi0, S0, vx, vyrel, Gp, kp):
+    """A short hop on one arc, solved from the Taylor polynomial of its gap (chattering).
+
+    From an impact at phase theta (``sn, cs`` its sine and cosine) at ``xi0`` (``S0 =
+    sqrt(R^2 - xi0^2)``) with gap rate ``Gp = G'(0) > 0``, the gap over the tile is
+
+        G(tau) = sum_{n=1..10} g_n tau^n / n! + r(tau),   g_n = F_n + B_n,
+        F_1 = vyrel, F_2 = -g - A w^2 sin, F_n = A w^n sin^(n)(theta) for n >= 3
+        (the flat gap: F_3 = -A w^3 cos, F_4 = A w^4 sin, F_5 = A w^5 cos, ...),
+        B_1 = vx xi0 / S0, B_2 = R^2 vx^2 / S0^3, B_3 = 3 R^2 xi0 vx^3 / S0^5,
+        B_4 = 3 R^2 (R^2 + 4 xi0^2) vx^4 / S0^7, B_n = 0 for n >= 5  (the arc, b(xi0) - b(xi))
+
+    with ``|r| <= A w^11 tau^11 / 11! + C5 |vx|^5 tau^5 / 5!``, ``C5 = 15 R^2 h (3 R^2 +
+    4 h^2) / c0^9`` bounding the fifth derivative of S on the tile (h = d/2).  Accepted
+    only if, up to ``tau_max = 2 tau_0`` (``tau_0 = -2 g_1 / g_2``, the parabola's hop):
+
+    * the particle stays on the tile and ``G'' <= g_2 + K3 tau_max < 0``, with ``K3 = A
+      w^3 + 3 R^2 h |vx|^3 / c0^5`` bounding the third derivative: G is concave, so its
+      only root in ``(0, tau_max]`` is the contact (``G(tau_max) < 0`` follows from the
+      same bound);
+    * the remainder moves that root by less than eps tau_0 (``|r| <= eps g_1 tau_0``).
+
+    The root of ``G / tau`` (no root at 0, no cancellation) is then found by Newton from
+    tau_0.  Returns ``(tau, xi, vyrel_minus, ok)``: flight time (s), contact coordinate
+    (mm), vertical velocity relative to the floor there (mm/s, ``F'`` from its series);
+    ``ok = False`` when any condition fails (the caller then searches with safe steps).
+    """
+    A, w, R, half = kp.A, kp.w, kp.R, 0.5 * kp.d
+    aw2 = A * w * w
+    inv_S = 1.0 / S0
+    R2 = R * R
+    F2 = -kp.g - aw2 * sn
+    g2 = F2 + R2 * vx * vx * inv_S * inv_S * inv_S
+    fail = (0.0, xi0, vyrel, False)
+    if not g2 < 0.0:
+        return fail
+    tau0 = -2.0 * Gp / g2
+    tau_max = 2.0 * tau0
+    if not (w * tau_max < TINY_HOP_MAX_SPAN and abs(xi0 + vx * tau_max) < half):
+        return fail
+    c0 = kp.c0
+    c0_2 = c0 * c0
+    avx = abs(vx)
+    aw3 = aw2 * w
+    K3 = aw3 + 3.0 * R2 * half * avx * avx * avx / (c0_2 * c0_2 * c0)
+    C5 = 15.0 * R2 * half * (3.0 * R2 + 4.0 * half * half) / (c0_2 * c0_2 * c0_2 * c0_2 * c0)
+    x = w * tau_max
+    x2 = x * x
+    t5 = tau_max * tau_max * tau_max * tau_max * tau_max
+    remainder = A * x2 * x2 * x2 * x2 * x2 * x * (1.0 / 39916800.0)  # A (w tau)^11 / 11!
+    remainder += C5 * avx**5 * t5 * (1.0 / 120.0)
+    if not (g2 + K3 * tau_max < 0.0 and remainder <= EPS * Gp * tau0):
+        return fail
+    # G / tau = Gp + q1 tau + q2 tau^2 + q3 tau^3 + H(w tau): q_n = g_(n+1) / (n+1)!, and
+    # H(y) = A w sum_{n=5..10} s_n y^(n-1) / n! with s_n = sin^(n)(theta) the flat rest.
+    S5 = inv_S * inv_S * inv_S * inv_S * inv_S
+    aw = A * w
+    q1 = 0.5 * g2
+    q2 = (-aw3 * cs + 3.0 * R2 * xi0 * vx**3 * S5) / 6.0
+    q3 = (aw3 * w * sn + 3.0 * R2 * (R2 + 4.0 * xi0 * xi0) * vx**4 * S5 * inv_S * inv_S) / 24.0
+    h5, h6, h7 = aw * cs / 120.0, -aw * sn / 720.0, -aw * cs / 5040.0
+    h8, h9, h10 = aw * sn / 40320.0, aw * cs / 362880.0, -aw * sn / 3628800.0
+    t = tau0
+    for _ in range(TINY_HOP_NEWTON_MAX):
+        y = w * t
+        y3 = y * y * y
+        H = y3 * y * (h5 + y * (h6 + y * (h7 + y * (h8 + y * (h9 + y * h10)))))
+        dH = y3 * (
+            4.0 * h5
+            + y * (5.0 * h6 + y * (6.0 * h7 + y * (7.0 * h8 + y * (8.0 * h9 + y * (9.0 * h10)))))
+        )
+        Q = Gp + t * (q1 + t * (q2 + t * q3)) + H
+        dQ = q1 + t * (2.0 * q2 + t * (3.0 * q3)) + w * dH
+        step = Q / dQ
+        t -= step
+        if abs(step) <= TINY_HOP_NEWTON_REL * t:
+            break
+    else:
+        return fail
+    if not 0.0 < t < tau_max:
+        return fail
+    # F'(t) = vyrel + F_2 t + A w sum_{n=3..10} s_n y^(n-1) / (n-1)!
+    y = w * t
+    c3, c4, c5, c6 = -cs / 2.0, sn / 6.0, cs / 24.0, -sn / 120.0
+    c7, c8, c9, c10 = -cs / 720.0, sn / 5040.0, cs / 40320.0, -sn / 362880.0
+    rest = c3 + y * (c4 + y * (c5 + y * (c6 + y * (c7 + y * (c8 + y * (c9 + y * c10))))))
+    Fp = vyrel + F2 * t + aw * y * y * rest
+    return t, xi0 + vx * t, Fp, True
+
+
 @njit(cache=True)
 def billiard_flight_rule(phase, xi0, vx, vyrel, kp, cubic):
     """``flight_search`` from the phase alone (its sine and cosine computed here)."""
@@ -223,9 +317,10 @@ def flight_search(phase, sn, cs, xi0, vx, vyrel, kp, cubic):
         accelerates downward faster than g.
     kp : KernelParams
     cubic : bool
-        True: cubic safe steps with the local curvature bound (``billiard_flight``);
-        False: quadratic steps with the global bound M (the previous rule, kept for
-        the tests and benchmarks that compare the two).
+        True: a tiny hop from its Taylor polynomial (``tiny_hop``), else cubic safe steps
+        with the local curvature bound (``billiard_flight``); False: quadratic steps
+        with the global bound M (the previous rule, kept for the tests and benchmarks
+        that compare the two).
 
     Returns
     -------
@@ -238,7 +333,7 @@ def flight_search(phase, sn, cs, xi0, vx, vyrel, kp, cubic):
     vyrel_minus : float
         Vertical velocity relative to the floor just before the contact (mm/s).
     n_steps : int
-        Safe steps taken (a cost measure).
+        Safe steps taken (a cost measure; 0 for a tiny hop solved by ``tiny_hop``).
     status : int
         ``OK``, ``BAD_STATE`` or ``ROOT_NOT_CONVERGED``.
     """
@@ -273,6 +368,10 @@ def flight_search(phase, sn, cs, xi0, vx, vyrel, kp, cubic):
 
     if abs(Gp) <= DEPARTURE_REL_TOL * (abs(vyrel) + abs(vx * xi0) / S0):
         Gp = 0.0  # tangent departure (alpha = 0): rounding of V.n = 0 must not count
+    elif cubic and Gp > 0.0 and abs(xi0) < half:
+        tau, xi, vyrel_minus, solved = tiny_hop(sn, cs, xi0, S0, vx, vyrel, Gp, kp)
+        if solved:
+            return tau, k_base, xi, vyrel_minus, 0, OK
     # Cheap superset of the release window sin(phase) < -1/Gamma before the asin.
     if kp.gamma * sn < -1.0 + 1e-9:
         theta_r, theta_e = release_window(kp.gamma)

@@ -70,6 +70,14 @@ WEDGE_TOL = 4.0 * EPS
 #: into the wedge; the wedge is so obtuse that one or two are the rule.
 WEDGE_MAX_REFLECTIONS = 16
 
+#: Tiny hops (``billiard.tiny_hop``): tried when the hop's phase span ``2 w tau_0`` (tau_0
+#: the parabola's flight time) is below this, and solved when the Taylor remainder moves
+#: the contact by less than eps tau_0; Newton stops once its step is below
+#: TINY_HOP_NEWTON_REL of the flight time, after at most TINY_HOP_NEWTON_MAX steps.
+TINY_HOP_MAX_SPAN = 0.5
+TINY_HOP_NEWTON_REL = 4.0 * EPS
+TINY_HOP_NEWTON_MAX = 8
+
 #: Gap of the billiard checked by the tests: never below -GAP_REL_TOL times the
 #: scale of the terms of the gap (``|vyrel| tau + g tau^2 + A + h``), a few ulp each.
 GAP_REL_TOL = 64.0 * EPS
