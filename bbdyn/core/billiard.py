@@ -71,7 +71,7 @@ from bbdyn.core.flat import (
     stick_release,
 )
 from bbdyn.core.floor import arc_root, bounce, floor_drop
-from bbdyn.core.plate import advance_phase, release_window
+from bbdyn.core.plate import advance_phase, release_window, sin_cos
 from bbdyn.core.status import (
     BAD_STATE,
     IMPACT,
@@ -165,7 +165,8 @@ def flight_gap(phase, xi0, vx, vyrel, tau, kp):
     """
     k = tile_offset(xi0, vx, tau, kp.d)
     S0 = arc_root(xi0, kp)
-    G = segment_gap(tau, k, math.sin(phase), math.cos(phase), xi0, S0, vx, vyrel, kp)[0]
+    sn, cs = sin_cos(phase)
+    G = segment_gap(tau, k, sn, cs, xi0, S0, vx, vyrel, kp)[0]
     return G
 
 
@@ -278,7 +279,10 @@ def tiny_hop(sn, cs, xi0, S0, vx, vyrel, Gp, kp):
         dQ = q1 + t * (2.0 * q2 + t * (3.0 * q3)) + w * dH
         step = Q / dQ
         t -= step
-        if abs(step) <= TINY_HOP_NEWTON_REL * t:
+        # Newton leaves an error of about |Q'' / 2 Q'| step^2; |Q''| <= 2 |q2| + 6 |q3| t +
+        # A w^3 y (the H term's is below A w^3 y / 9 for y < 1): stop once that is negligible
+        curv = 2.0 * abs(q2) + 6.0 * abs(q3) * t + aw * w * w * y
+        if step * step * curv <= TINY_HOP_NEWTON_REL * t * abs(dQ):
             break
     else:
         return fail
@@ -296,7 +300,8 @@ def tiny_hop(sn, cs, xi0, S0, vx, vyrel, Gp, kp):
 @njit(cache=True)
 def billiard_flight_rule(phase, xi0, vx, vyrel, kp, cubic):
     """``flight_search`` from the phase alone (its sine and cosine computed here)."""
-    return flight_search(phase, math.sin(phase), math.cos(phase), xi0, vx, vyrel, kp, cubic)
+    sn, cs = sin_cos(phase)
+    return flight_search(phase, sn, cs, xi0, vx, vyrel, kp, cubic)
 
 
 @njit(cache=True)
@@ -308,7 +313,7 @@ def flight_search(phase, sn, cs, xi0, vx, vyrel, kp, cubic):
     phase : float
         Phase w t (rad) of the event that starts the flight.
     sn, cs : float
-        ``math.sin(phase)`` and ``math.cos(phase)``: the event loop computes them once per
+        ``sin_cos(phase)`` (``plate.py``): the event loop computes them once per
         event and shares them with ``collide`` and the observables (``billiard_event_trig``).
     xi0, vx, vyrel : float
         Local coordinate (mm) and velocity relative to the floor (mm/s) just
@@ -338,11 +343,6 @@ def flight_search(phase, sn, cs, xi0, vx, vyrel, kp, cubic):
         ``OK``, ``BAD_STATE`` or ``ROOT_NOT_CONVERGED``.
     """
     d, R, w, g, M = kp.d, kp.R, kp.w, kp.g, kp.curv_bound
-    aw2 = kp.A * w * w
-    K = aw2 * w  # |d/dtau (g + A w^2 sin)| <= A w^3
-    L = K * w  # |d^2/dtau^2 (g + A w^2 sin)| <= A w^4
-    arc_curv = R * R * vx * vx / (kp.c0 * kp.c0 * kp.c0)  # max of -b'' vx^2 on a tile
-    m_pad = 4.0 * EPS * M  # rounding allowance keeping g + A w^2 sin an upper bound
     half = 0.5 * d
     k_base = 0.0
     # A particle on a wedge moving away from its tile starts on the neighbour.
@@ -352,26 +352,30 @@ def flight_search(phase, sn, cs, xi0, vx, vyrel, kp, cubic):
     elif vx < 0.0 and xi0 <= -half:
         xi0 = half
         k_base = -1.0
-    direction = 1.0 if vx > 0.0 else -1.0
     S0 = arc_root(xi0, kp)
-
-    tau = 0.0
-    k = 0.0
-    sn_t, cn_t = sn, cs  # sine and cosine of the phase reached at tau
-    G = 0.0
     Gp = vyrel + vx * xi0 / S0  # = R V.n / S0
-    lift = xi0 * xi0 / (R + S0)  # h - b(xi0)
-    G_env = -lift
-    G_envp = vyrel
-    xi = xi0
-    tc = crossing_time(xi0, k, vx, d)
-
     if abs(Gp) <= DEPARTURE_REL_TOL * (abs(vyrel) + abs(vx * xi0) / S0):
         Gp = 0.0  # tangent departure (alpha = 0): rounding of V.n = 0 must not count
     elif cubic and Gp > 0.0 and abs(xi0) < half:
         tau, xi, vyrel_minus, solved = tiny_hop(sn, cs, xi0, S0, vx, vyrel, Gp, kp)
         if solved:
             return tau, k_base, xi, vyrel_minus, 0, OK
+
+    aw2 = kp.A * w * w
+    K = aw2 * w  # |d/dtau (g + A w^2 sin)| <= A w^3
+    L = K * w  # |d^2/dtau^2 (g + A w^2 sin)| <= A w^4
+    arc_curv = R * R * vx * vx / (kp.c0 * kp.c0 * kp.c0)  # max of -b'' vx^2 on a tile
+    m_pad = 4.0 * EPS * M  # rounding allowance keeping g + A w^2 sin an upper bound
+    direction = 1.0 if vx > 0.0 else -1.0
+    tau = 0.0
+    k = 0.0
+    sn_t, cn_t = sn, cs  # sine and cosine of the phase reached at tau
+    G = 0.0
+    lift = xi0 * xi0 / (R + S0)  # h - b(xi0)
+    G_env = -lift
+    G_envp = vyrel
+    xi = xi0
+    tc = crossing_time(xi0, k, vx, d)
     # Cheap superset of the release window sin(phase) < -1/Gamma before the asin.
     if kp.gamma * sn < -1.0 + 1e-9:
         theta_r, theta_e = release_window(kp.gamma)
@@ -468,7 +472,8 @@ def billiard_flight(phase, xi0, vx, vyrel, kp):
 
     Returns ``(tau, k, xi, vyrel_minus, n_steps, status)`` (see ``billiard_flight_rule``).
     """
-    return flight_search(phase, math.sin(phase), math.cos(phase), xi0, vx, vyrel, kp, True)
+    sn, cs = sin_cos(phase)
+    return flight_search(phase, sn, cs, xi0, vx, vyrel, kp, True)
 
 
 @njit(cache=True, inline="always")
@@ -629,7 +634,8 @@ def lands_at_once(periods, phase, vyrel, g_eff, kp):
 @njit(cache=True)
 def collide(periods, phase, tile, xi, vx, vyrel, kp):
     """``collide_trig`` from the phase alone; returns its event state without the trig."""
-    out = collide_trig(periods, phase, math.sin(phase), math.cos(phase), tile, xi, vx, vyrel, kp)
+    sn, cs = sin_cos(phase)
+    out = collide_trig(periods, phase, sn, cs, tile, xi, vx, vyrel, kp)
     return out[:8]
 
 
@@ -637,7 +643,7 @@ def collide(periods, phase, tile, xi, vx, vyrel, kp):
 def collide_trig(periods, phase, sn, cs, tile, xi, vx, vyrel, kp):
     """Apply the collision at ``(tile, xi)`` and decide whether chattering ends in a stick.
 
-    ``sn, cs`` are ``math.sin(phase)`` and ``math.cos(phase)`` of the contact.  A contact
+    ``sn, cs`` are ``sin_cos(phase)`` (``plate.py``) of the contact.  A contact
     within ``WEDGE_TOL * d`` of a wedge is put on the wedge and treated by
     ``wedge_reflect``; a collapse into the wedge (``wedge_reflect`` gives up, or
     ``lands_at_once``) is a STICK there.  Returns the event state ``(periods, phase, tile,
@@ -666,7 +672,7 @@ def collide_trig(periods, phase, sn, cs, tile, xi, vx, vyrel, kp):
                 s = math.sin(ds / kp.R)
                 xi = min(max(xi * c + S * s, -half), half)
                 periods, phase = advance_phase(periods, phase, kp.w * tau_inf)
-                sn, cs = math.sin(phase), math.cos(phase)
+                sn, cs = sin_cos(phase)
                 return periods, phase, tile, xi, 0.0, 0.0, STICK, OK, sn, cs
     return periods, phase, tile, xi, vx, vyrel, IMPACT, OK, sn, cs
 
@@ -681,9 +687,8 @@ def billiard_event_rule(periods, phase, tile, xi, vx, vyrel, kind, kp, cubic):
     >>> ev[-1] == OK and ev[0] + ev[1] > 0.0
     True
     """
-    out = event_search(
-        periods, phase, math.sin(phase), math.cos(phase), tile, xi, vx, vyrel, kind, kp, cubic
-    )
+    sn, cs = sin_cos(phase)
+    out = event_search(periods, phase, sn, cs, tile, xi, vx, vyrel, kind, kp, cubic)
     return out[:8]
 
 
@@ -696,7 +701,7 @@ def event_search(periods, phase, sn, cs, tile, xi, vx, vyrel, kind, kp, cubic):
     periods, phase : float
         Time of the current event: whole driving periods and phase w t mod 2 pi (rad).
     sn, cs : float
-        ``math.sin(phase)`` and ``math.cos(phase)`` (computed once per event: the flight
+        ``sin_cos(phase)`` (``plate.py``) (computed once per event: the flight
         and ``collide_trig`` use them, and so do the observables of the event loop).
     tile, xi : float
         Tile index (integer-valued) and local coordinate (mm) of the particle, on the floor.
@@ -722,14 +727,14 @@ def event_search(periods, phase, sn, cs, tile, xi, vx, vyrel, kind, kp, cubic):
         periods_r, phase_r, status = stick_release(periods, phase, kp.gamma)
         if status != OK:
             return periods, phase, tile, xi, 0.0, 0.0, STICK, status, sn, cs
-        sn_r, cs_r = math.sin(phase_r), math.cos(phase_r)
+        sn_r, cs_r = sin_cos(phase_r)
         return periods_r, phase_r, tile, xi, 0.0, 0.0, RELEASE, OK, sn_r, cs_r
 
     tau, k, xi_c, vyrel_minus, _, status = flight_search(phase, sn, cs, xi, vx, vyrel, kp, cubic)
     if status != OK:
         return periods, phase, tile, xi, vx, vyrel, kind, status, sn, cs
     periods, phase = advance_phase(periods, phase, kp.w * tau)
-    sn_c, cs_c = math.sin(phase), math.cos(phase)
+    sn_c, cs_c = sin_cos(phase)
     return collide_trig(periods, phase, sn_c, cs_c, tile + k, xi_c, vx, vyrel_minus, kp)
 
 
@@ -747,8 +752,8 @@ def billiard_event_trig(periods, phase, sn, cs, tile, xi, vx, vyrel, kind, kp):
     """``billiard_event`` for a loop that carries ``sn, cs = sin, cos(phase)`` along.
 
     Returns ``(periods, phase, tile, xi, vx, vyrel, kind, status, sn, cs)`` of the next
-    event; bitwise the state of ``billiard_event`` (the same ``math.sin``, ``math.cos``
-    values, computed once per event instead of up to five times).
+    event; bitwise the state of ``billiard_event`` (the same ``sin_cos`` values,
+    computed once per event instead of up to five times).
     """
     return event_search(periods, phase, sn, cs, tile, xi, vx, vyrel, kind, kp, True)
 

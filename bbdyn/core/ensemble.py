@@ -54,7 +54,7 @@ from bbdyn.core.observables import (
     time_between,
     trap_of,
 )
-from bbdyn.core.plate import plate_height_sin, plate_velocity_cos
+from bbdyn.core.plate import plate_height_sin, plate_velocity_cos, sin_cos
 from bbdyn.core.status import IMPACT, OK, RELEASE, STICK, STUCK_FOREVER
 
 #: Bit flags selecting the observables an ensemble computes.
@@ -236,7 +236,7 @@ def accumulate_interval(acc, j, ev, trig, b, lo, hi, kp, energy):
 def integrate_blocks(acc, ev, trig, hi, window, kp, energy):
     """Integrate the motion since the event ``ev`` up to ``hi``, per block of the window.
 
-    ``trig`` is ``(math.sin, math.cos)`` of the event's phase; ``hi`` a ``(periods,
+    ``trig`` is ``sin_cos`` of the event's phase; ``hi`` a ``(periods,
     phase)`` pair; the part of ``[ev, hi]`` inside the ``window`` (a ``Window``) is cut at
     the block boundaries ``p0 + j L`` (phase 0) and added to row ``j`` of ``acc`` (shape
     (nb, >= 4)) by ``accumulate_interval``.
@@ -300,7 +300,7 @@ def integrate_to_split(acc, ev, p0, split, kp, energy):
         if nxt[7] == OK and is_before(nxt[0], nxt[1], split, 0.0):
             hi_p, hi_ph = nxt[0], nxt[1]
         ev_now = Event(periods, phase, tile, xi, vx, vyrel, kind)
-        trig = (math.sin(phase), math.cos(phase))
+        trig = sin_cos(phase)
         integrate_blocks(rows, ev_now, trig, (hi_p, hi_ph), half, kp, energy)
         periods, phase, tile, xi, vx, vyrel = hi_p, hi_ph, nxt[2], nxt[3], nxt[4], nxt[5]
         kind = nxt[6]
@@ -499,7 +499,7 @@ def particle_loop(carry, i, budget, kp, times, out, obs, th):
     n_samples = sample_periods.shape[0]
     status = OK
     n_done = 0
-    trig = (math.sin(phase), math.cos(phase))  # then carried from event to event
+    trig = sin_cos(phase)  # then carried from event to event
     while True:
         if n_done == budget:
             status = RUNNING

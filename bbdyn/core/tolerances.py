@@ -72,8 +72,8 @@ WEDGE_MAX_REFLECTIONS = 16
 
 #: Tiny hops (``billiard.tiny_hop``): tried when the hop's phase span ``2 w tau_0`` (tau_0
 #: the parabola's flight time) is below this, and solved when the Taylor remainder moves
-#: the contact by less than eps tau_0; Newton stops once its step is below
-#: TINY_HOP_NEWTON_REL of the flight time, after at most TINY_HOP_NEWTON_MAX steps.
+#: the contact by less than eps tau_0; Newton stops once the error its last step leaves is
+#: below TINY_HOP_NEWTON_REL of the flight time, after at most TINY_HOP_NEWTON_MAX steps.
 TINY_HOP_MAX_SPAN = 0.5
 TINY_HOP_NEWTON_REL = 4.0 * EPS
 TINY_HOP_NEWTON_MAX = 8
