@@ -79,6 +79,7 @@ def compare(args) -> dict:
         proc.stdin.close()
         proc.wait()
     report = {"n": args.n, "t": args.t, "repeats": args.repeats, "fast_forward": args.fast_forward}
+    report["trees"] = [tree_label(tree) for tree in args.trees]
     report["results"] = []
     for f in args.f:
         med = [statistics.median(rates[tree, f]) for tree in args.trees]
@@ -90,6 +91,33 @@ def compare(args) -> dict:
             "ratio": med[1] / med[0],
         })  # fmt: skip
     return report
+
+
+def tree_label(tree: str) -> str:
+    """The tree's git commit (short hash; ``+dirty`` with uncommitted changes), else its path."""
+
+    def git(*args):
+        out = subprocess.run(["git", "-C", tree, *args], capture_output=True, text=True, check=True)
+        return out.stdout.strip()
+
+    try:
+        head = git("rev-parse", "--short", "HEAD")
+        dirty = git("status", "--porcelain", "--untracked-files=no")
+    except (OSError, subprocess.CalledProcessError):
+        return os.path.abspath(tree)
+    return head + ("+dirty" if dirty else "")
+
+
+def doc_table(report: dict) -> str:
+    """The report as a markdown table: per frequency, events per CPU-second of each tree
+    (median over the repeats) and their ratio."""
+    old, new = report["trees"]
+    lines = [f"| f (Hz) | events / CPU-s, {old} | events / CPU-s, {new} | ratio |",
+             "|---:|---:|---:|---:|"]  # fmt: skip
+    for row in report["results"]:
+        a, b = row["median_events_per_cpu_s"]
+        lines.append(f"| {row['f']:g} | {a:.3g} | {b:.3g} | {row['ratio']:.2f} |")
+    return "\n".join(lines)
 
 
 def main() -> None:

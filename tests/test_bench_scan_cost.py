@@ -109,3 +109,17 @@ def test_measured_table_sums_each_band_of_a_real_scan():
     assert sum(counts) == grid.size
     empty = sc.measured_table(points[:3]).splitlines()
     assert empty[3] == "| 53.2-57.4 | 0 | 0% | 0 | - |"
+
+
+def test_measured_speedup_table_compares_two_scans_band_by_band():
+    """Two grids of known cost (the second twice as fast, four times at 50 Hz): each band's
+    sums and ratio; grids that differ are refused."""
+    grid = frequency_grid(49.8, 95.0, 0.2)
+    before = [{"f": float(f), "cpu_s": 2.0} for f in grid]
+    after = [{"f": float(f), "cpu_s": 0.5 if abs(f - 50.0) < 1e-9 else 1.0} for f in grid]
+    rows = sc.measured_speedup_table(before, after[::-1]).splitlines()
+    assert rows[2] == "| 49.8-53 | 34 | 16 | 2.06 |"  # 17 points: 34 s against 16.5 s
+    assert rows[3] == "| 53.2-57.4 | 44 | 22 | 2.00 |"
+    assert rows[-1] == f"| all | {2 * grid.size} | {grid.size - 0.5:.0f} | 2.00 |"
+    with pytest.raises(ValueError, match="same frequency grid"):
+        sc.measured_speedup_table(before, after[1:])

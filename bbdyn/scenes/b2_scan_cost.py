@@ -248,6 +248,26 @@ def measured_table(points: list[dict], bands=BANDS) -> str:
     return "\n".join(lines)
 
 
+def measured_speedup_table(before: list[dict], after: list[dict], bands=BANDS) -> str:
+    """Two real scans of the same grid compared per band of ``bands``: the summed ``cpu_s``
+    of each (points of ``bbdyn scan --json``) and their ratio, before / after (markdown)."""
+
+    def per_band(points):
+        f = np.array([p["f"] for p in points], dtype=float)
+        cpu = np.array([p["cpu_s"] for p in points], dtype=float)
+        sums = [cpu[(f >= lo - 1e-9) & (f <= hi + 1e-9)].sum() for lo, hi in bands]
+        return np.array(sums + [cpu.sum()]), np.sort(f)
+
+    (old, f_old), (new, f_new) = per_band(before), per_band(after)
+    if not np.array_equal(f_old, f_new):
+        raise ValueError("the two scans must have the same frequency grid")
+    lines = ["| band (Hz) | CPU s before | CPU s after | before / after |", "|---|---:|---:|---:|"]
+    names = [f"{lo:g}-{hi:g}" for lo, hi in bands] + ["all"]
+    for name, a, b in zip(names, old, new, strict=True):
+        lines.append(f"| {name} | {a:.0f} | {b:.0f} | {a / b:.2f} |")
+    return "\n".join(lines)
+
+
 def draw(result: ScanCostResult):
     """Figure: c(f) at the samples."""
     import matplotlib.pyplot as plt
