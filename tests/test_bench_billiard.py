@@ -7,9 +7,10 @@ import numpy as np
 import pytest
 
 from bbdyn import Params, cli
-from bbdyn.core.billiard import billiard_run
+from bbdyn.core.billiard import billiard_run, tiny_hop
+from bbdyn.core.plate import sin_cos
 from bbdyn.core.status import IMPACT, OK, STICK
-from bbdyn.core.tolerances import EPS, IMPACT_TIME_TOL
+from bbdyn.core.tolerances import DEPARTURE_REL_TOL, EPS, IMPACT_TIME_TOL
 from bbdyn.reference.fixed_step_billiard import fixed_step_billiard_one_step
 from bbdyn.scenes import b2_billiard as bench
 
@@ -73,11 +74,12 @@ def test_fixed_step_error_is_first_order_in_dt_min(flights):
 
 
 def test_profile_counts_agree_with_recorded_run():
-    """flight_profile's collision and stick counts are those of a recorded run."""
+    """flight_profile's collision and stick counts are those of a recorded run, and its tiny
+    hops are the flights of that run that tiny_hop solves."""
     kp = Params(f=58.0).kernel()
     n = 5000
     state = np.array(bench.CASE["start"], dtype=float)
-    _, flights_, collisions, sticks, status = bench.flight_profile(state, kp, n)
+    _, flights_, tiny, collisions, sticks, status = bench.flight_profile(state, kp, n)
     assert status == OK
     arrays = [np.empty(n) for _ in range(6)] + [np.empty(n, dtype=np.int64)]
     n_done, status = billiard_run(*bench.CASE["start"], kp, *arrays)
@@ -88,6 +90,18 @@ def test_profile_counts_agree_with_recorded_run():
     # a flight starts after every event but a STICK (the start is an IMPACT)
     assert flights_ == 1 + np.count_nonzero(kind[:-1] != STICK)
     assert bench.CASE["start"][6] == IMPACT
+    start = bench.CASE["start"]
+    starts = [(start[1], start[3], start[4], start[5])] + [
+        (arrays[1][i], arrays[3][i], arrays[4][i], arrays[5][i]) for i in range(n - 1)
+        if kind[i] != STICK
+    ]  # fmt: skip
+    solved = 0
+    for phase, xi, vx, vyrel in starts:
+        S0 = math.sqrt((kp.R - xi) * (kp.R + xi))
+        Gp = vyrel + vx * xi / S0
+        if Gp > DEPARTURE_REL_TOL * (abs(vyrel) + abs(vx * xi) / S0) and abs(xi) < kp.d / 2:
+            solved += tiny_hop(*sin_cos(phase), xi, S0, vx, vyrel, Gp, kp)[3]
+    assert tiny == solved > 0
 
 
 TINY = {

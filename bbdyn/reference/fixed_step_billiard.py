@@ -34,7 +34,7 @@ from bbdyn.core.billiard import segment_gap, snap_to_wedge, tile_offset, wedge_r
 from bbdyn.core.ensemble import ACC_EX, ACC_EY, ACC_POT, Event, accumulate_interval
 from bbdyn.core.floor import arc_root, floor_height_rel, from_normal_velocity, normal_velocity
 from bbdyn.core.observables import displacement, is_before, time_between
-from bbdyn.core.plate import advance_phase
+from bbdyn.core.plate import advance_phase, sin_cos
 from bbdyn.core.status import IMPACT, NON_FINITE, OK, ROOT_NOT_CONVERGED
 
 __all__ = [
@@ -209,7 +209,7 @@ def _fixed_particle(i, state, dt, dt_min, kp, end, window, s_periods, s_phase, d
         if is_before(lo[0], lo[1], hi[0], hi[1]):
             b = floor_height_rel(xi, kp)
             flight = Event(periods, phase, tile, xi, vx, vyrel, IMPACT)
-            accumulate_interval(acc, i, flight, b, lo, hi, kp, True)
+            accumulate_interval(acc, i, flight, sin_cos(phase), b, lo, hi, kp, True)
         while k < n_samples and (last or is_before(s_periods[k], s_phase[k], nxt[0], nxt[1])):
             x = xi + vx * time_between(s_periods[k], s_phase[k], periods, phase, kp.w, kp.period)
             disp[i, k] = displacement(tile, x, tile0, xi0, kp.d)

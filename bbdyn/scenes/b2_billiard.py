@@ -171,29 +171,33 @@ def _continuous(state, kp, n_events):
 def flight_profile(state, kp, n_events):
     """Cost profile of ``n_events`` events from ``state``.
 
-    Returns ``(steps, flights, collisions, sticks, status)``: safe steps summed over
-    flights, flights, collisions (IMPACT or STICK) and STICK events.
+    Returns ``(steps, flights, tiny, collisions, sticks, status)``: safe steps summed over
+    flights, flights, flights solved without a safe step (tiny hops, ``tiny_hop``),
+    collisions (IMPACT or STICK) and STICK events.
     """
     periods, phase, tile, xi, vx, vyrel = state[0], state[1], state[2], state[3], state[4], state[5]
     kind = int(state[6])
     steps = 0
     flights = 0
+    tiny = 0
     collisions = 0
     sticks = 0
     for _ in range(n_events):
         if kind != STICK:
-            steps += billiard_flight(phase, xi, vx, vyrel, kp)[4]
+            n_steps = billiard_flight(phase, xi, vx, vyrel, kp)[4]
+            steps += n_steps
+            tiny += n_steps == 0
             flights += 1
         periods, phase, tile, xi, vx, vyrel, kind, status = billiard_event(
             periods, phase, tile, xi, vx, vyrel, kind, kp
         )
         if status != OK:
-            return steps, flights, collisions, sticks, status
+            return steps, flights, tiny, collisions, sticks, status
         if kind != 2:  # IMPACT or STICK
             collisions += 1
         if kind == STICK:
             sticks += 1
-    return steps, flights, collisions, sticks, OK
+    return steps, flights, tiny, collisions, sticks, OK
 
 
 def _start_array(states) -> np.ndarray:
@@ -253,8 +257,8 @@ def _bench_exact(kp, states, starts, ref, settings) -> list[dict[str, Any]]:
     n_events = int(settings["continuous_events"])
     state = np.array([states[k][0] for k in ("periods", "phase", "tile", "xi", "vx", "vyrel")])
     state = np.append(state, states["kind"][0])
-    profile = flight_profile(state, kp, n_events)
-    raise_for_status(profile[4], "exact continuous run")
+    steps, flights, _, collisions, sticks, status = flight_profile(state, kp, n_events)
+    raise_for_status(status, "exact continuous run")
     timing = measure(
         lambda: raise_for_status(_continuous(state, kp, n_events), "exact continuous run"),
         repeats=settings["repeats"],
@@ -264,11 +268,11 @@ def _bench_exact(kp, states, starts, ref, settings) -> list[dict[str, Any]]:
         {
             "method": "exact",
             "setting": f"continuous run, {n_events} events, 1 thread",
-            "impacts_per_s": timing.per_second(profile[2]),
-            "collisions_per_s": timing.per_second(profile[2]),
+            "impacts_per_s": timing.per_second(collisions),
+            "collisions_per_s": timing.per_second(collisions),
             "events_per_s": timing.per_second(n_events),
-            "steps_per_flight": profile[0] / profile[1],
-            "stick_share": profile[3] / profile[2],
+            "steps_per_flight": steps / flights,
+            "stick_share": sticks / collisions,
             "max_time_error_s": errors["max_time_error_s"],
             "max_velocity_error": errors["max_velocity_error"],
         }
@@ -375,7 +379,8 @@ def _observables(params, settings) -> list[dict[str, Any]]:
 
 
 def _profile(settings) -> list[dict[str, Any]]:
-    """Continuous-run collisions per second, steps per flight, stick share per frequency."""
+    """Continuous-run collisions per second, steps per flight, tiny-hop and stick shares and
+    time per event, per frequency."""
     rows = []
     n_events = int(settings["profile_events"])
     for f in settings["profile_f"]:
@@ -383,7 +388,7 @@ def _profile(settings) -> list[dict[str, Any]]:
         out = billiard_run_count(*CASE["start"], kp, CASE["transient"])
         raise_for_status(out[8], f"profile transient at {f} Hz")
         state = np.array(out[:7], dtype=float)
-        steps, flights, collisions, sticks, status = flight_profile(state, kp, n_events)
+        steps, flights, tiny, collisions, sticks, status = flight_profile(state, kp, n_events)
         raise_for_status(status, f"profile at {f} Hz")
         timing = measure(
             lambda kp=kp, state=state: _continuous(state, kp, n_events),
@@ -396,8 +401,9 @@ def _profile(settings) -> list[dict[str, Any]]:
                 "collisions_per_s": timing.per_second(collisions),
                 "events_per_s": timing.per_second(n_events),
                 "steps_per_flight": steps / flights,
+                "tiny_share": tiny / flights,
                 "stick_share": sticks / collisions,
-                "ns_per_step": 1e9 * timing.median_s / steps,
+                "ns_per_event": 1e9 * timing.median_s / n_events,
             }
         )
     return rows
@@ -544,11 +550,12 @@ def table(result: BilliardBenchResult) -> str:
         lines.append(text)
     lines += ["", "profile (continuous run, 1 thread):"]
     lines.append(
-        f"{'f (Hz)':>7} {'coll/s':>9} {'steps/flight':>12} {'stick share':>11} {'ns/step':>8}"
+        f"{'f (Hz)':>7} {'coll/s':>9} {'steps/flight':>12} {'tiny hops':>9} {'stick share':>11} "
+        f"{'ns/event':>8}"
     )
     for r in result.meta["profile"]:
         lines.append(
             f"{r['f']:>7g} {r['collisions_per_s']:>9.3g} {r['steps_per_flight']:>12.2f} "
-            f"{r['stick_share']:>11.3f} {r['ns_per_step']:>8.1f}"
+            f"{r['tiny_share']:>9.3f} {r['stick_share']:>11.3f} {r['ns_per_event']:>8.1f}"
         )
     return "\n".join(lines)
