@@ -70,26 +70,44 @@ def test_differences_within_the_rounding_bound_are_agreement_and_beyond_it_are_n
 
 def test_the_docs_table_is_the_committed_comparison():
     """docs/benchmarks.md shows the table of docs/scan_compare/full_scan_compare.json, which
-    compares the committed full scan with docs/figures/S3_full (recomputed here)."""
+    compares the committed full scan with docs/figures/S3_full (recomputed here), where that
+    scan's time went, its speed-up over the db5ef1b scan and the kernel benchmark beside it."""
     import json
 
     m = _module()
     root = SCRIPT.parents[1]
-    from bbdyn.scenes.b2_scan_cost import measured_table
+    from bbdyn.scenes.b2_scan_cost import measured_speedup_table, measured_table
 
-    saved = json.loads((root / "docs" / "scan_compare" / "full_scan_compare.json").read_text())
+    folder = root / "docs" / "scan_compare"
+    saved = json.loads((folder / "full_scan_compare.json").read_text())
     text = (root / "docs" / "benchmarks.md").read_text()
+    flat = " ".join(text.split())
     assert m.doc_table(saved) in text
     scan = json.loads((root / saved["provenance"]["new"]["file"]).read_text())
     assert measured_table(scan["points"]) in text
-    assert f"{scan['cpu_s']:.0f} s of CPU time" in " ".join(text.split())
+    assert f"{scan['cpu_s']:.0f} s of CPU time" in flat
+    wall = json.loads((folder / "full_scan_c98c783_wall.json").read_text())
+    assert wall["scan"] == saved["provenance"]["new"]["file"]
+    assert f"{wall['wall_s']:.0f} s wall" in flat
+    before = json.loads((folder / "full_scan_db5ef1b.json").read_text())["points"]
+    assert measured_speedup_table(before, scan["points"]) in text
+    kernel = json.loads((folder / "kernel_buffers_6c8e81b_c98c783.json").read_text())
+    spec = importlib.util.spec_from_file_location("kernel_buffers", SCRIPT.with_name(
+        "kernel_buffers.py"))  # fmt: skip
+    kb = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(kb)
+    assert kb.doc_table(kernel) in text
     old = m.load_old(root / "docs" / "figures" / "S3_full.npz")
     new = m.load_new(root / saved["provenance"]["new"]["file"])
     again = m.z_scores(old, new)
-    below = again["f"] < 65.0
     for name in ("D", "E", "E_x"):
         assert {k: v for k, v in again[name].items() if k != "z"} == saved[name]
-        # the sentences under the table: same trajectories below 65 Hz, noise above
+        # the sentences under the table: the same trajectories below 57 Hz (and energies
+        # below 65 Hz), noise above 65 Hz
         z = again[name]["z"]
-        assert np.abs(z[below]).max() < 1.0
-        assert 0.8 < z[~below].std(ddof=1) < 1.2
+        locked = again["f"] < (57.0 if name == "D" else 65.0)
+        assert np.abs(z[again["f"] < 57.0]).max() < 1.0
+        assert np.abs(z[locked]).max() < 1.0
+        assert 0.8 < z[again["f"] > 65.0].std(ddof=1) < 1.2
+    # D already decorrelates between 57 and 65 Hz
+    assert np.abs(again["D"]["z"][(again["f"] > 57.0) & (again["f"] < 65.0)]).max() > 1.0
