@@ -1,0 +1,49 @@
+"""benchmarks/chatter_events.py: the events a chattering sum accepted earlier would absorb."""
+
+import importlib.util
+import json
+from pathlib import Path
+
+import numpy as np
+
+from bbdyn.core.status import IMPACT, RELEASE, STICK
+
+SCRIPT = Path(__file__).resolve().parents[1] / "benchmarks" / "chatter_events.py"
+
+
+def _module():
+    spec = importlib.util.spec_from_file_location("chatter_events", SCRIPT)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def test_absorbed_counts_the_slow_bounces_just_before_each_stick_on_its_tile():
+    """A sequence at the arc's bottom (xi = 0: V.n = vyrel) with normal velocities halving
+    towards a STICK, a bounce on another tile in between, and a RELEASE: only the run of
+    slow IMPACTs on the STICK's own tile, right before it, counts."""
+    m = _module()
+    vn = np.array([8.0, 4.0, 2.0, 1.0, 0.5, 0.25, 0.0, 0.0, 3.0, 0.5, 0.2, 0.0])
+    kind = np.array([IMPACT] * 6 + [STICK, RELEASE] + [IMPACT] * 3 + [STICK])
+    tile = np.zeros(vn.size)
+    tile[9] = 1.0  # the slow bounce before the second STICK is on another tile
+    xi, vx = np.zeros(vn.size), np.zeros(vn.size)
+    count = m.absorbed(tile, xi, vx, vn, kind, 25.0, 1.5, STICK, IMPACT)
+    assert count == 3 + 1  # 1.0, 0.5, 0.25 before the first STICK; 0.2 before the second
+    assert m.absorbed(tile, xi, vx, vn, kind, 25.0, 0.1, STICK, IMPACT) == 0
+    # off the bottom the normal velocity mixes vx and vyrel: V.n = (vyrel S + vx xi) / R
+    xi = np.full(vn.size, 0.6)
+    S = np.sqrt(25.0**2 - 0.6**2)
+    vyrel = (vn * 25.0 - 2.0 * 0.6) / S  # vx = 2 mm/s along the arc
+    count = m.absorbed(tile, xi, np.full(vn.size, 2.0), vyrel, kind, 25.0, 1.5, STICK, IMPACT)
+    assert count == 4
+
+
+def test_the_docs_table_is_the_committed_report():
+    m = _module()
+    root = SCRIPT.parents[1]
+    report = json.loads((root / "docs" / "scan_compare" / "chatter_events.json").read_text())
+    text = " ".join((root / "docs" / "benchmarks.md").read_text().split())
+    assert m.doc_table(report) in (root / "docs" / "benchmarks.md").read_text()
+    assert f"({report['n']} particles of the reference box" in text
+    assert f"{report['events']} events each" in text
