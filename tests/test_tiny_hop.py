@@ -126,3 +126,52 @@ def test_tiny_hop_refuses_what_it_cannot_prove():
     assert not attempt(theta, 0.0, 0.0, 3e-4)
     tau0 = 6e-4 / (kp.g + kp.A * kp.w**2 * math.sin(theta))
     assert billiard_flight(theta, 0.0, 0.0, 3e-4, kp)[0] > 10 * tau0
+
+
+@njit(cache=True)
+def _rules_on(starts, kp, out):
+    for j in range(starts.shape[0]):
+        phase, xi0, vx, vyrel = starts[j, 0], starts[j, 1], starts[j, 2], starts[j, 3]
+        a = billiard_flight_rule(phase, xi0, vx, vyrel, kp, True)
+        b = billiard_flight_rule(phase, xi0, vx, vyrel, kp, False)
+        out[j, 0], out[j, 1], out[j, 2], out[j, 3], out[j, 4] = a[0], a[1], b[0], b[1], a[4]
+        out[j, 5], out[j, 6] = a[5], b[5]
+
+
+@pytest.mark.parametrize(
+    "params",
+    [Params(f=70.0, R=1.2), Params(f=70.0, R=1e9), Params(f=45.0), Params(f=90.0, A=1.0)],
+    ids=["steep_arcs", "flat_limit", "gamma_below_1", "large_amplitude"],
+)
+def test_random_hops_on_hard_floors(params):
+    """Random hops (normal velocities 1e-9 to 1 mm/s, tangential 1e-6 to 1e2 mm/s, any phase,
+    200 next to a wedge): tiny_hop agrees with the quadratic-step search everywhere, and with
+    mpmath where they differ most, within what rounding allows.  Besides the cancellation in
+    G'(0) (``cond``), near the release phase G''(0) = -g - A w^2 sin + R^2 vx^2 / S^3 is a
+    difference too: ``cond_g`` = the sum of its magnitudes over its value."""
+    from bbdyn.reference.billiard_mpmath import reference_flight
+
+    kp = params.kernel()
+    rng = np.random.default_rng(5)
+    n, half = 20000, 0.5 * kp.d
+    xi = rng.uniform(-half, half, n)
+    xi[:200] = half * (1 - 1e-12) * np.sign(rng.uniform(-1, 1, 200))
+    vx = rng.normal(0, 1, n) * 10 ** rng.uniform(-6, 2, n)
+    S = np.sqrt((kp.R - xi) * (kp.R + xi))
+    vyrel = (10 ** rng.uniform(-9, 0, n) * kp.R - vx * xi) / S  # leaving the arc
+    phase = rng.uniform(0, 2 * math.pi, n)
+    out = np.zeros((n, 7))
+    _rules_on(np.stack([phase, xi, vx, vyrel], 1), kp, out)
+    assert np.all(out[:, 5] == OK) and np.all(out[:, 6] == OK)
+    tiny = out[:, 4] == 0
+    assert tiny.sum() > n / 3  # most of these short hops are solved from the polynomial
+    assert np.array_equal(out[:, 1], out[:, 3])  # same tiles
+    arc = kp.R**2 * vx**2 / S**3
+    aw2 = kp.A * kp.w**2
+    cond_g = (kp.g + aw2 * np.abs(np.sin(phase)) + arc) / np.abs(-kp.g - aw2 * np.sin(phase) + arc)
+    scale = EPS * out[:, 2] * (1 + _cond(kp, xi, vx, vyrel) + cond_g)
+    excess = np.abs(out[:, 0] - out[:, 2]) / scale
+    assert excess[tiny].max() <= 4.0
+    for i in np.argsort(-np.where(tiny, excess, 0.0))[:4]:
+        ref = reference_flight(kp, phase[i], xi[i], vx[i], vyrel[i], out[i, 1], out[i, 0])[0]
+        assert abs(out[i, 0] - ref) <= 4 * scale[i] * ref / out[i, 2]
