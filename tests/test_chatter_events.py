@@ -1,21 +1,15 @@
 """benchmarks/chatter_events.py: the events a chattering sum accepted earlier would absorb."""
 
-import importlib.util
 import json
-from pathlib import Path
 
 import numpy as np
+from derivation_loader import ROOT, load_benchmark
 
 from bbdyn.core.status import IMPACT, RELEASE, STICK
 
-SCRIPT = Path(__file__).resolve().parents[1] / "benchmarks" / "chatter_events.py"
-
 
 def _module():
-    spec = importlib.util.spec_from_file_location("chatter_events", SCRIPT)
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
+    return load_benchmark("chatter_events")
 
 
 def test_absorbed_counts_the_slow_bounces_just_before_each_stick_on_its_tile():
@@ -41,9 +35,8 @@ def test_absorbed_counts_the_slow_bounces_just_before_each_stick_on_its_tile():
 
 def test_the_docs_table_is_the_committed_report():
     m = _module()
-    root = SCRIPT.parents[1]
-    report = json.loads((root / "docs" / "scan_compare" / "chatter_events.json").read_text())
-    text = " ".join((root / "docs" / "benchmarks.md").read_text().split())
-    assert m.doc_table(report) in (root / "docs" / "benchmarks.md").read_text()
+    report = json.loads((ROOT / "docs" / "scan_compare" / "chatter_events.json").read_text())
+    text = " ".join((ROOT / "docs" / "benchmarks.md").read_text().split())
+    assert m.doc_table(report) in (ROOT / "docs" / "benchmarks.md").read_text()
     assert f"({report['n']} particles of the reference box" in text
     assert f"{report['events']} events each" in text

@@ -1,18 +1,11 @@
 """benchmarks/scan_compare.py: z scores of two scans, on synthetic scans with known truth."""
 
-import importlib.util
-from pathlib import Path
-
 import numpy as np
-
-SCRIPT = Path(__file__).resolve().parents[1] / "benchmarks" / "scan_compare.py"
+from derivation_loader import ROOT, load_benchmark
 
 
 def _module():
-    spec = importlib.util.spec_from_file_location("scan_compare", SCRIPT)
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
+    return load_benchmark("scan_compare")
 
 
 def _scan(f, truth, err, rng, shift=0.0, rounding=0.0):
@@ -75,7 +68,7 @@ def test_the_docs_table_is_the_committed_comparison():
     import json
 
     m = _module()
-    root = SCRIPT.parents[1]
+    root = ROOT
     from bbdyn.scenes.b2_scan_cost import measured_speedup_table, measured_table
 
     folder = root / "docs" / "scan_compare"
@@ -92,11 +85,7 @@ def test_the_docs_table_is_the_committed_comparison():
     before = json.loads((folder / "full_scan_db5ef1b.json").read_text())["points"]
     assert measured_speedup_table(before, scan["points"]) in text
     kernel = json.loads((folder / "kernel_buffers_6c8e81b_c98c783.json").read_text())
-    spec = importlib.util.spec_from_file_location("kernel_buffers", SCRIPT.with_name(
-        "kernel_buffers.py"))  # fmt: skip
-    kb = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(kb)
-    assert kb.doc_table(kernel) in text
+    assert load_benchmark("kernel_buffers").doc_table(kernel) in text
     old = m.load_old(root / "docs" / "figures" / "S3_full.npz")
     new = m.load_new(root / saved["provenance"]["new"]["file"])
     again = m.z_scores(old, new)

@@ -74,31 +74,32 @@ def test_tiny_hops_land_where_mpmath_finds_the_contact(f):
 
 @njit(cache=True)
 def _both_rules(starts, kp, out):
+    """Columns: tau, k, xi, vyrel^-, steps, status of the current search, then tau, k, xi,
+    vyrel^-, status of the quadratic-step search."""
     for j in range(starts.shape[0]):
         phase, xi0, vx, vyrel = starts[j, 0], starts[j, 1], starts[j, 2], starts[j, 3]
         a = billiard_flight_rule(phase, xi0, vx, vyrel, kp, True)
         b = billiard_flight_rule(phase, xi0, vx, vyrel, kp, False)
-        out[j, 0], out[j, 1], out[j, 2], out[j, 3] = a[0], a[1], a[2], a[3]
-        out[j, 4], out[j, 5], out[j, 6], out[j, 7] = b[0], b[1], b[2], b[3]
-        out[j, 8], out[j, 9] = a[5], b[5]
+        out[j, 0], out[j, 1], out[j, 2], out[j, 3], out[j, 4], out[j, 5] = a
+        out[j, 6], out[j, 7], out[j, 8], out[j, 9], _, out[j, 10] = b
 
 
 @pytest.mark.parametrize("f", FREQS)
 def test_tiny_hops_agree_with_the_safe_step_search(f):
     kp, starts = _starts(f)
-    out = np.zeros((len(starts), 10))
+    out = np.zeros((len(starts), 11))
     _both_rules(starts, kp, out)
-    assert np.all(out[:, 8] == OK) and np.all(out[:, 9] == OK)
-    assert np.array_equal(out[:, 1], out[:, 5])  # same tile
+    assert np.all(out[:, 5] == OK) and np.all(out[:, 10] == OK)
+    assert np.array_equal(out[:, 1], out[:, 7])  # same tile
     phase, xi0, vx, vyrel = starts.T
     cond = _cond(kp, xi0, vx, vyrel)
     # each search is within a few eps tau (1 + cond) of the contact (the search stops at
     # ROOT_STEP_REL = 2 eps of the flight time)
-    assert np.all(np.abs(out[:, 0] - out[:, 4]) <= 16 * EPS * out[:, 4] * (1 + cond))
-    assert np.all(np.abs(out[:, 2] - out[:, 6]) <= 4 * EPS * kp.d)
+    assert np.all(np.abs(out[:, 0] - out[:, 6]) <= 16 * EPS * out[:, 6] * (1 + cond))
+    assert np.all(np.abs(out[:, 2] - out[:, 8]) <= 4 * EPS * kp.d)
     # vyrel^- = F'(tau): moved by the time difference (F'' <= g + A w^2) and by rounding
-    scale = np.abs(vyrel) + (kp.g + kp.A * kp.w**2) * out[:, 4] * (1 + cond)
-    assert np.all(np.abs(out[:, 3] - out[:, 7]) <= 64 * EPS * scale)
+    scale = np.abs(vyrel) + (kp.g + kp.A * kp.w**2) * out[:, 6] * (1 + cond)
+    assert np.all(np.abs(out[:, 3] - out[:, 9]) <= 64 * EPS * scale)
 
 
 def test_tiny_hop_refuses_what_it_cannot_prove():
@@ -128,16 +129,6 @@ def test_tiny_hop_refuses_what_it_cannot_prove():
     assert billiard_flight(theta, 0.0, 0.0, 3e-4, kp)[0] > 10 * tau0
 
 
-@njit(cache=True)
-def _rules_on(starts, kp, out):
-    for j in range(starts.shape[0]):
-        phase, xi0, vx, vyrel = starts[j, 0], starts[j, 1], starts[j, 2], starts[j, 3]
-        a = billiard_flight_rule(phase, xi0, vx, vyrel, kp, True)
-        b = billiard_flight_rule(phase, xi0, vx, vyrel, kp, False)
-        out[j, 0], out[j, 1], out[j, 2], out[j, 3], out[j, 4] = a[0], a[1], b[0], b[1], a[4]
-        out[j, 5], out[j, 6] = a[5], b[5]
-
-
 @pytest.mark.parametrize(
     "params",
     [Params(f=70.0, R=1.2), Params(f=70.0, R=1e9), Params(f=45.0), Params(f=90.0, A=1.0)],
@@ -160,18 +151,18 @@ def test_random_hops_on_hard_floors(params):
     S = np.sqrt((kp.R - xi) * (kp.R + xi))
     vyrel = (10 ** rng.uniform(-9, 0, n) * kp.R - vx * xi) / S  # leaving the arc
     phase = rng.uniform(0, 2 * math.pi, n)
-    out = np.zeros((n, 7))
-    _rules_on(np.stack([phase, xi, vx, vyrel], 1), kp, out)
-    assert np.all(out[:, 5] == OK) and np.all(out[:, 6] == OK)
+    out = np.zeros((n, 11))
+    _both_rules(np.stack([phase, xi, vx, vyrel], 1), kp, out)
+    assert np.all(out[:, 5] == OK) and np.all(out[:, 10] == OK)
     tiny = out[:, 4] == 0
     assert tiny.sum() > n / 3  # most of these short hops are solved from the polynomial
-    assert np.array_equal(out[:, 1], out[:, 3])  # same tiles
+    assert np.array_equal(out[:, 1], out[:, 7])  # same tiles
     arc = kp.R**2 * vx**2 / S**3
     aw2 = kp.A * kp.w**2
     cond_g = (kp.g + aw2 * np.abs(np.sin(phase)) + arc) / np.abs(-kp.g - aw2 * np.sin(phase) + arc)
-    scale = EPS * out[:, 2] * (1 + _cond(kp, xi, vx, vyrel) + cond_g)
-    excess = np.abs(out[:, 0] - out[:, 2]) / scale
+    scale = EPS * out[:, 6] * (1 + _cond(kp, xi, vx, vyrel) + cond_g)
+    excess = np.abs(out[:, 0] - out[:, 6]) / scale
     assert excess[tiny].max() <= 4.0
     for i in np.argsort(-np.where(tiny, excess, 0.0))[:4]:
         ref = reference_flight(kp, phase[i], xi[i], vx[i], vyrel[i], out[i, 1], out[i, 0])[0]
-        assert abs(out[i, 0] - ref) <= 4 * scale[i] * ref / out[i, 2]
+        assert abs(out[i, 0] - ref) <= 4 * scale[i] * ref / out[i, 6]
