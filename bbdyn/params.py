@@ -21,8 +21,9 @@ class KernelParams(NamedTuple):
     ``A, w, g, alpha, beta, R, d`` as in docs/model.md; the rest are derived once
     here so that kernels never recompute them: ``gamma = A w^2 / g``,
     ``curv_bound = g + A w^2`` (a bound on ``|d^2 gap / dt^2|`` of the flat ball),
-    ``c0 = sqrt(R^2 - d^2/4)`` (depth of the arc centres below the wedges) and
-    ``period = 2 pi / w``.
+    ``c0 = sqrt(R^2 - d^2/4)`` (depth of the arc centres below the wedges),
+    ``period = 2 pi / w`` and ``arc5_bound = 15 R^2 h (3 R^2 + 4 h^2) / c0^9`` (h = d/2;
+    a bound on the fifth derivative of the arc height on a tile, ``billiard.tiny_hop``).
     """
 
     A: float
@@ -36,6 +37,7 @@ class KernelParams(NamedTuple):
     curv_bound: float
     c0: float
     period: float
+    arc5_bound: float
 
 
 #: Supported range ``(low, high)`` of each dimensional field, in its unit (Hz, mm, mm/s^2);
@@ -176,6 +178,9 @@ class Params:
     def kernel(self) -> KernelParams:
         """The plain-float NamedTuple the numba kernels take."""
         w = self.w
+        c0 = math.sqrt(self.R**2 - self.d**2 / 4)
+        R2, half, c0_2 = self.R * self.R, 0.5 * self.d, c0 * c0
+        arc5 = 15.0 * R2 * half * (3.0 * R2 + 4.0 * half * half) / (c0_2 * c0_2 * c0_2 * c0_2 * c0)
         return KernelParams(
             A=self.A,
             w=w,
@@ -186,8 +191,9 @@ class Params:
             d=self.d,
             gamma=self.gamma,
             curv_bound=self.g + self.A * w * w,
-            c0=math.sqrt(self.R**2 - self.d**2 / 4),
+            c0=c0,
             period=1.0 / self.f,
+            arc5_bound=arc5,
         )
 
 

@@ -217,7 +217,8 @@ def tiny_hop(sn, cs, xi0, S0, vx, vyrel, Gp, kp):
         B_4 = 3 R^2 (R^2 + 4 xi0^2) vx^4 / S0^7, B_n = 0 for n >= 5  (the arc, b(xi0) - b(xi))
 
     with ``|r| <= A w^11 tau^11 / 11! + C5 |vx|^5 tau^5 / 5!``, ``C5 = 15 R^2 h (3 R^2 +
-    4 h^2) / c0^9`` bounding the fifth derivative of S on the tile (h = d/2).  Accepted
+    4 h^2) / c0^9`` (``kp.arc5_bound``) bounding the fifth derivative of S on the tile
+    (h = d/2).  Accepted
     only if, up to ``tau_max = 2 tau_0`` (``tau_0 = -2 g_1 / g_2``, the parabola's hop):
 
     * the particle stays on the tile and ``G'' <= g_2 + K3 tau_max < 0``, with ``K3 = A
@@ -249,12 +250,11 @@ def tiny_hop(sn, cs, xi0, S0, vx, vyrel, Gp, kp):
     avx = abs(vx)
     aw3 = aw2 * w
     K3 = aw3 + 3.0 * R2 * half * avx * avx * avx / (c0_2 * c0_2 * c0)
-    C5 = 15.0 * R2 * half * (3.0 * R2 + 4.0 * half * half) / (c0_2 * c0_2 * c0_2 * c0_2 * c0)
     x = w * tau_max
     x2 = x * x
     t5 = tau_max * tau_max * tau_max * tau_max * tau_max
     remainder = A * x2 * x2 * x2 * x2 * x2 * x * (1.0 / 39916800.0)  # A (w tau)^11 / 11!
-    remainder += C5 * avx**5 * t5 * (1.0 / 120.0)
+    remainder += kp.arc5_bound * avx**5 * t5 * (1.0 / 120.0)
     if not (g2 + K3 * tau_max < 0.0 and remainder <= EPS * Gp * tau0):
         return fail
     # G / tau = Gp + q1 tau + q2 tau^2 + q3 tau^3 + H(w tau): q_n = g_(n+1) / (n+1)!, and
@@ -472,8 +472,7 @@ def billiard_flight(phase, xi0, vx, vyrel, kp):
 
     Returns ``(tau, k, xi, vyrel_minus, n_steps, status)`` (see ``billiard_flight_rule``).
     """
-    sn, cs = sin_cos(phase)
-    return flight_search(phase, sn, cs, xi0, vx, vyrel, kp, True)
+    return billiard_flight_rule(phase, xi0, vx, vyrel, kp, True)
 
 
 @njit(cache=True, inline="always")

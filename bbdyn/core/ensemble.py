@@ -43,7 +43,7 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit, prange
 
-from bbdyn.core.billiard import billiard_event, billiard_event_trig
+from bbdyn.core.billiard import billiard_event_trig
 from bbdyn.core.features import Collision, block_of, feature_collision, feature_finish
 from bbdyn.core.floor import arc_root, floor_height_rel, normal_velocity, xi_from_arc_length
 from bbdyn.core.observables import (
@@ -292,18 +292,18 @@ def integrate_to_split(acc, ev, p0, split, kp, energy):
     half = Window(p0, split - p0, 1)
     rows = acc[1:]
     periods, phase, tile, xi, vx, vyrel, kind = ev
+    trig = sin_cos(phase)
     while is_before(periods, phase, split, 0.0):
-        nxt = billiard_event(periods, phase, tile, xi, vx, vyrel, kind, kp)
+        nxt = billiard_event_trig(periods, phase, trig[0], trig[1], tile, xi, vx, vyrel, kind, kp)
         if nxt[7] != OK and nxt[7] != STUCK_FOREVER:
             return
         hi_p, hi_ph = split, 0.0
         if nxt[7] == OK and is_before(nxt[0], nxt[1], split, 0.0):
             hi_p, hi_ph = nxt[0], nxt[1]
         ev_now = Event(periods, phase, tile, xi, vx, vyrel, kind)
-        trig = sin_cos(phase)
         integrate_blocks(rows, ev_now, trig, (hi_p, hi_ph), half, kp, energy)
         periods, phase, tile, xi, vx, vyrel = hi_p, hi_ph, nxt[2], nxt[3], nxt[4], nxt[5]
-        kind = nxt[6]
+        kind, trig = nxt[6], (nxt[8], nxt[9])  # hi is that event's time unless the loop ends
 
 
 @njit(cache=True)

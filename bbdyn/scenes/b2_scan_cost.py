@@ -231,15 +231,21 @@ def table(result: ScanCostResult) -> str:
     return "\n".join(lines)
 
 
+def _band_masks(points: list[dict], bands):
+    """``f`` (Hz), ``cpu_s`` and one mask per band of ``bands`` (ends included) of the points
+    of ``bbdyn scan --json``."""
+    f = np.array([p["f"] for p in points], dtype=float)
+    cpu = np.array([p["cpu_s"] for p in points], dtype=float)
+    return f, cpu, [(f >= lo - 1e-9) & (f <= hi + 1e-9) for lo, hi in bands]
+
+
 def measured_table(points: list[dict], bands=BANDS) -> str:
     """Where a real scan's time went: per band of ``bands``, the summed ``cpu_s`` of the
     points of ``bbdyn scan --json`` (``points``: dicts with ``f`` in Hz and ``cpu_s``), its
     share, the number of points and the costliest point (markdown table)."""
-    f = np.array([p["f"] for p in points], dtype=float)
-    cpu = np.array([p["cpu_s"] for p in points], dtype=float)
+    f, cpu, masks = _band_masks(points, bands)
     lines = ["| band (Hz) | CPU s | share | points | costliest point |", "|---|---:|---:|---:|---|"]
-    for lo, hi in bands:
-        sel = (f >= lo - 1e-9) & (f <= hi + 1e-9)
+    for (lo, hi), sel in zip(bands, masks, strict=True):
         top = int(np.argmax(np.where(sel, cpu, -1.0)))
         costliest = f"{cpu[top]:.1f} s at {f[top]:g} Hz" if sel.any() else "-"
         lines.append(f"| {lo:g}-{hi:g} | {cpu[sel].sum():.0f} | {cpu[sel].sum() / cpu.sum():.0%} "
@@ -251,19 +257,13 @@ def measured_table(points: list[dict], bands=BANDS) -> str:
 def measured_speedup_table(before: list[dict], after: list[dict], bands=BANDS) -> str:
     """Two real scans of the same grid compared per band of ``bands``: the summed ``cpu_s``
     of each (points of ``bbdyn scan --json``) and their ratio, before / after (markdown)."""
-
-    def per_band(points):
-        f = np.array([p["f"] for p in points], dtype=float)
-        cpu = np.array([p["cpu_s"] for p in points], dtype=float)
-        sums = [cpu[(f >= lo - 1e-9) & (f <= hi + 1e-9)].sum() for lo, hi in bands]
-        return np.array(sums + [cpu.sum()]), np.sort(f)
-
-    (old, f_old), (new, f_new) = per_band(before), per_band(after)
-    if not np.array_equal(f_old, f_new):
+    (f_old, old, m_old), (f_new, new, m_new) = _band_masks(before, bands), _band_masks(after, bands)
+    if not np.array_equal(np.sort(f_old), np.sort(f_new)):
         raise ValueError("the two scans must have the same frequency grid")
     lines = ["| band (Hz) | CPU s before | CPU s after | before / after |", "|---|---:|---:|---:|"]
-    names = [f"{lo:g}-{hi:g}" for lo, hi in bands] + ["all"]
-    for name, a, b in zip(names, old, new, strict=True):
+    rows = [(f"{lo:g}-{hi:g}", old[a].sum(), new[b].sum())
+            for (lo, hi), a, b in zip(bands, m_old, m_new, strict=True)]  # fmt: skip
+    for name, a, b in rows + [("all", old.sum(), new.sum())]:
         lines.append(f"| {name} | {a:.0f} | {b:.0f} | {a / b:.2f} |")
     return "\n".join(lines)
 
