@@ -2,6 +2,7 @@
 
 import json
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -151,3 +152,50 @@ def test_bench_billiard_cli_json(tmp_path, capsys):
     rows = json.loads(capsys.readouterr().out)
     assert rows[0]["method"] == "exact" and rows[0]["collisions_per_s"] > 0
     assert (tmp_path / "b.png").exists() and (tmp_path / "b.json").exists()
+
+
+def test_the_docs_numbers_are_those_of_the_committed_run():
+    """docs/benchmarks.md shows the table of docs/bench/billiard_bd1e3d6.json and states its
+    numbers in the findings below it."""
+    from bbdyn.results import load_result
+
+    root = Path(__file__).resolve().parents[1]
+    result = load_result(root / "docs" / "bench" / "billiard_bd1e3d6.json")
+    raw = (root / "docs" / "benchmarks.md").read_text()
+    assert bench.table(result) in raw
+    text = " ".join(raw.split())
+    rows, prof = result.meta["rows"], result.meta["profile"]
+    exact = [r for r in rows if r["method"] == "exact"]
+    fixed = {r["setting"]: r for r in rows if r["method"] == "fixed_step"}
+    paper = fixed["dt=0.0001 s, dt_min=1e-06 s"]
+    cps = [p["collisions_per_s"] / 1e6 for p in prof]
+    steps = [p["steps_per_flight"] for p in prof]
+    by_f = {p["f"]: p for p in prof}
+    ensemble = next(r for r in exact if "ensemble" in r["setting"])
+    err = max(r["max_time_error_s"] for r in exact if np.isfinite(r["max_time_error_s"]))
+    obs = result.meta["observables"]
+    ref, fs = obs[0], obs[1:]
+    expected = [
+        f"max {err:.1e} s",
+        f"{min(cps):.1f}e6 to {max(cps):.1f}e6 collisions/s per core",
+        f"{ensemble['collisions_per_s'] / 1e6:.1f}e6 on the two threads",
+        f"({min(steps):.1f} to {max(steps):.1f} per flight",
+        f"where {100 * by_f[58.0]['tiny_share']:.0f} % of the flights are tiny hops",
+        f"an event costs {by_f[58.0]['ns_per_event']:.0f} ns; at 88.4 Hz, where "
+        f"{100 * by_f[88.4]['tiny_share']:.0f} % are, {by_f[88.4]['ns_per_event']:.0f} ns",
+        f"1e{round(math.log10(paper['max_time_error_s'] / err))} times less accurate",
+        f"{paper['cost_ratio_to_exact']:.1f} times slower",
+        f"{fs[0]['collisions_per_particle_per_s']:.0f} collisions per particle per second "
+        f"instead of {ref['collisions_per_particle_per_s']:.0f}",
+        f"({fs[0]['D_diff_in_se']:+.1f} and {fs[1]['D_diff_in_se']:+.1f} se)",
+        f"E by {fs[0]['E'] - ref['E']:.0f} +- {math.hypot(fs[0]['E_se'], ref['E_se']):.0f} and "
+        f"{fs[1]['E'] - ref['E']:.0f} +- {math.hypot(fs[1]['E_se'], ref['E_se']):.0f} "
+        f"({fs[0]['E_diff_in_se']:.1f} and {fs[1]['E_diff_in_se']:.1f} se)",
+        f"E_y by {fs[0]['E_y'] - ref['E_y']:.0f} and {fs[1]['E_y'] - ref['E_y']:.0f} +- "
+        f"{math.hypot(fs[0]['E_y_se'], ref['E_y_se']):.1f} ({fs[0]['E_y_diff_in_se']:.1f} and "
+        f"{fs[1]['E_y_diff_in_se']:.1f} se)",
+        f"{100 * (fs[0]['E'] - ref['E']) / ref['E']:.1f} % of E",
+    ]
+    for sentence in expected:
+        assert sentence in text, sentence
+    assert all(r["wrong_contacts"] == 0 for r in fixed.values())  # "no wrong contact"

@@ -86,6 +86,11 @@ def test_the_docs_table_is_the_committed_comparison():
     assert measured_speedup_table(before, scan["points"]) in text
     kernel = json.loads((folder / "kernel_buffers_6c8e81b_c98c783.json").read_text())
     assert load_benchmark("kernel_buffers").doc_table(kernel) in text
+    # "largest where chattering hops are most of the events (50-70 Hz), smallest at 85-95 Hz"
+    ratio = {row["f"]: row["ratio"] for row in kernel["results"]}
+    assert min(r for f, r in ratio.items() if f <= 70.2) > max(
+        r for f, r in ratio.items() if f >= 85.2
+    )
     old = m.load_old(root / "docs" / "figures" / "S3_full.npz")
     new = m.load_new(root / saved["provenance"]["new"]["file"])
     again = m.z_scores(old, new)
