@@ -164,3 +164,21 @@ def layer_map() -> str:
 
 if __name__ == "__main__":
     print(layer_map())
+
+
+def test_every_core_kernel_is_compiled_with_the_same_fast_math_flags():
+    """numba may reuse a helper compiled for one caller in another, so kernels compiled with
+    different flags make results depend on the order of compilation: every ``@njit`` of
+    ``bbdyn/core`` passes ``fastmath=FMA`` (``core.tolerances``), nothing else."""
+    for path in sorted((PACKAGE / "core").glob("*.py")):
+        for node in ast.walk(ast.parse(path.read_text())):
+            if not isinstance(node, ast.FunctionDef):
+                continue
+            for deco in node.decorator_list:
+                name = getattr(getattr(deco, "func", deco), "id", None)
+                if name != "njit":
+                    continue
+                flags = [k.value for k in getattr(deco, "keywords", []) if k.arg == "fastmath"]
+                assert len(flags) == 1 and getattr(flags[0], "id", None) == "FMA", (
+                    f"{path.name}: {node.name} is not compiled with fastmath=FMA"
+                )

@@ -14,49 +14,20 @@ import math
 
 import numpy as np
 import pytest
-from numba import njit
+from flight_rules import both_rules, flight_starts, random_starts, rate_cond
 
 from bbdyn import Params
-from bbdyn.core.billiard import billiard_event, billiard_flight, billiard_flight_rule, tiny_hop
-from bbdyn.core.status import OK, STICK
+from bbdyn.core.billiard import billiard_flight, tiny_hop
+from bbdyn.core.status import OK
 from bbdyn.core.tolerances import EPS
-from bbdyn.ensemble import ensemble
 
 FREQS = (50.2, 70.2, 85.2)
 
 
-@njit(cache=True)
-def _tiny_hop_starts(state, kp, n_events, out):
-    """Start states ``(phase, xi, vx, vyrel)`` of the flights that ``tiny_hop`` solves."""
-    periods, phase, tile, xi, vx, vyrel = state[0], state[1], state[2], state[3], state[4], state[5]
-    kind = int(state[6])
-    j = 0
-    for _ in range(n_events):
-        if kind != STICK and j < out.shape[0]:
-            if billiard_flight(phase, xi, vx, vyrel, kp)[4] == 0:  # 0 steps: a tiny hop
-                out[j, 0], out[j, 1], out[j, 2], out[j, 3] = phase, xi, vx, vyrel
-                j += 1
-        periods, phase, tile, xi, vx, vyrel, kind, status = billiard_event(
-            periods, phase, tile, xi, vx, vyrel, kind, kp
-        )
-        if status != OK:
-            break
-    return j
-
-
 def _starts(f, n_max=4000):
-    params = Params(f=f)
-    kp = params.kernel()
-    state = np.asarray(ensemble(params, t=3.0, n=2, seed=2, threads=1)["final"])[0]
-    out = np.zeros((n_max, 4))
-    j = _tiny_hop_starts(state, kp, 20 * n_max, out)
-    assert j > 100  # chattering is there to be tested
-    return kp, out[:j]
-
-
-def _cond(kp, xi0, vx, vyrel):
-    S0 = np.sqrt((kp.R - xi0) * (kp.R + xi0))
-    return (np.abs(vyrel) + np.abs(vx * xi0) / S0) / (vyrel + vx * xi0 / S0)
+    kp, starts = flight_starts(f, True, n_max, 20 * n_max)
+    assert len(starts) > 100  # chattering is there to be tested
+    return kp, starts
 
 
 @pytest.mark.parametrize("f", FREQS)
@@ -69,30 +40,18 @@ def test_tiny_hops_land_where_mpmath_finds_the_contact(f):
         tau, k, _, _, n_steps, status = billiard_flight(phase, xi0, vx, vyrel, kp)
         assert status == OK and n_steps == 0 and k == 0.0
         ref = reference_flight(kp, phase, xi0, vx, vyrel, k, tau)[0]
-        assert abs(tau - ref) <= 4 * EPS * ref * (1 + _cond(kp, xi0, vx, vyrel))
-
-
-@njit(cache=True)
-def _both_rules(starts, kp, out):
-    """Columns: tau, k, xi, vyrel^-, steps, status of the current search, then tau, k, xi,
-    vyrel^-, status of the quadratic-step search."""
-    for j in range(starts.shape[0]):
-        phase, xi0, vx, vyrel = starts[j, 0], starts[j, 1], starts[j, 2], starts[j, 3]
-        a = billiard_flight_rule(phase, xi0, vx, vyrel, kp, True)
-        b = billiard_flight_rule(phase, xi0, vx, vyrel, kp, False)
-        out[j, 0], out[j, 1], out[j, 2], out[j, 3], out[j, 4], out[j, 5] = a
-        out[j, 6], out[j, 7], out[j, 8], out[j, 9], _, out[j, 10] = b
+        assert abs(tau - ref) <= 4 * EPS * ref * (1 + rate_cond(kp, xi0, vx, vyrel))
 
 
 @pytest.mark.parametrize("f", FREQS)
 def test_tiny_hops_agree_with_the_safe_step_search(f):
     kp, starts = _starts(f)
     out = np.zeros((len(starts), 11))
-    _both_rules(starts, kp, out)
+    both_rules(starts, kp, out)
     assert np.all(out[:, 5] == OK) and np.all(out[:, 10] == OK)
     assert np.array_equal(out[:, 1], out[:, 7])  # same tile
     phase, xi0, vx, vyrel = starts.T
-    cond = _cond(kp, xi0, vx, vyrel)
+    cond = rate_cond(kp, xi0, vx, vyrel)
     # each search is within a few eps tau (1 + cond) of the contact (the search stops at
     # ROOT_STEP_REL = 2 eps of the flight time)
     assert np.all(np.abs(out[:, 0] - out[:, 6]) <= 16 * EPS * out[:, 6] * (1 + cond))
@@ -143,16 +102,11 @@ def test_random_hops_on_hard_floors(params):
     from bbdyn.reference.billiard_mpmath import reference_flight
 
     kp = params.kernel()
-    rng = np.random.default_rng(5)
-    n, half = 20000, 0.5 * kp.d
-    xi = rng.uniform(-half, half, n)
-    xi[:200] = half * (1 - 1e-12) * np.sign(rng.uniform(-1, 1, 200))
-    vx = rng.normal(0, 1, n) * 10 ** rng.uniform(-6, 2, n)
+    n = 20000
+    phase, xi, vx, vyrel = random_starts(kp, 5, n, (-9, 0)).T
     S = np.sqrt((kp.R - xi) * (kp.R + xi))
-    vyrel = (10 ** rng.uniform(-9, 0, n) * kp.R - vx * xi) / S  # leaving the arc
-    phase = rng.uniform(0, 2 * math.pi, n)
     out = np.zeros((n, 11))
-    _both_rules(np.stack([phase, xi, vx, vyrel], 1), kp, out)
+    both_rules(np.stack([phase, xi, vx, vyrel], 1), kp, out)
     assert np.all(out[:, 5] == OK) and np.all(out[:, 10] == OK)
     tiny = out[:, 4] == 0
     assert tiny.sum() > n / 3  # most of these short hops are solved from the polynomial
@@ -160,7 +114,7 @@ def test_random_hops_on_hard_floors(params):
     arc = kp.R**2 * vx**2 / S**3
     aw2 = kp.A * kp.w**2
     cond_g = (kp.g + aw2 * np.abs(np.sin(phase)) + arc) / np.abs(-kp.g - aw2 * np.sin(phase) + arc)
-    scale = EPS * out[:, 6] * (1 + _cond(kp, xi, vx, vyrel) + cond_g)
+    scale = EPS * out[:, 6] * (1 + rate_cond(kp, xi, vx, vyrel) + cond_g)
     excess = np.abs(out[:, 0] - out[:, 6]) / scale
     assert excess[tiny].max() <= 4.0
     for i in np.argsort(-np.where(tiny, excess, 0.0))[:4]:

@@ -88,18 +88,20 @@ from bbdyn.core.tolerances import (
     DEPARTURE_REL_TOL,
     DEPARTURE_SHRINK,
     EPS,
+    FMA,
     ROOT_MAX_STEPS,
     ROOT_STEP_REL,
     SERIES_MAX_TERMS,
-    TINY_HOP_MAX_SPAN,
-    TINY_HOP_NEWTON_MAX,
-    TINY_HOP_NEWTON_REL,
+    TAYLOR_MAX_DEGREE,
+    TAYLOR_MAX_SPAN,
+    TAYLOR_NEWTON_MAX,
+    TAYLOR_NEWTON_REL,
     WEDGE_MAX_REFLECTIONS,
     WEDGE_TOL,
 )
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, fastmath=FMA, inline="always")
 def crossing_time(xi0, k, vx, d):
     """Time (s) at which a flight from ``xi0`` leaves tile offset ``k``; inf for vx = 0."""
     if vx > 0.0:
@@ -109,7 +111,7 @@ def crossing_time(xi0, k, vx, d):
     return math.inf
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, fastmath=FMA, inline="always")
 def tile_offset(xi0, vx, tau, d):
     """Tile offset (integer-valued float) of the point reached at ``tau`` from ``xi0``.
 
@@ -122,7 +124,7 @@ def tile_offset(xi0, vx, tau, d):
     return math.floor(pos)
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, fastmath=FMA, inline="always")
 def segment_gap_phase(tau, k, phase_sin, phase_cos, xi0, S0, vx, vyrel, kp):
     """``segment_gap`` and the sine and cosine of the phase reached at ``tau``.
 
@@ -141,7 +143,7 @@ def segment_gap_phase(tau, k, phase_sin, phase_cos, xi0, S0, vx, vyrel, kp):
     return G, Gp, G_env, Fp, xi, sn, cn
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, fastmath=FMA, inline="always")
 def segment_gap(tau, k, phase_sin, phase_cos, xi0, S0, vx, vyrel, kp):
     """Gap and rates at ``tau`` with the particle over tile offset ``k``.
 
@@ -156,7 +158,7 @@ def segment_gap(tau, k, phase_sin, phase_cos, xi0, S0, vx, vyrel, kp):
     return G, Gp, G_env, Fp, xi
 
 
-@njit(cache=True)
+@njit(cache=True, fastmath=FMA)
 def flight_gap(phase, xi0, vx, vyrel, tau, kp):
     """Gap (mm) between the particle and the floor under it, ``tau`` s after an event.
 
@@ -170,7 +172,7 @@ def flight_gap(phase, xi0, vx, vyrel, tau, kp):
     return G
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, fastmath=FMA, inline="always")
 def tangent_departure(sn, xi0, S0, vx, tc, kp):
     """A time (s) up to which a flight leaving tangentially (G(0) = G'(0) = 0) stays clear.
 
@@ -196,115 +198,246 @@ def tangent_departure(sn, xi0, S0, vx, tc, kp):
     return 0.0
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, fastmath=FMA, inline="always")
 def flight_step(G, Gp, m, M, K, cubic):
     """Safe step (s) from a gap ``G >= 0`` with rate ``Gp``: cubic (``-G'' <= m + K s``,
     ``cubic_safe_step``) or quadratic (``-G'' <= M``, ``safe_step``)."""
     return cubic_safe_step(G, Gp, m, M, K) if cubic else safe_step(G, Gp, M)
 
 
-@njit(cache=True, inline="always")
+#: 1 / n! for n = 0 .. TAYLOR_MAX_DEGREE: the Taylor coefficients of the drive.
+INV_FACTORIAL = tuple(1.0 / math.factorial(n) for n in range(TAYLOR_MAX_DEGREE + 1))
+
+
+@njit(cache=True, fastmath=FMA, inline="always")
+def drive_degree(aw, x, budget):
+    """Lowest degree N in [4, TAYLOR_MAX_DEGREE] of the drive's Taylor polynomial whose
+    remainder in the rate, ``A w x^N / N!`` (``aw = A w``, ``x = w u_max`` the span), is at
+    most ``budget`` (mm/s); 0 if none is.  The remainder in the gap is then at most ``u_max /
+    (N + 1)`` times that (``|d^n/du^n A sin(theta + w u)| <= A w^n``)."""
+    term = aw * x * x * x * x * (1.0 / 24.0)
+    for N in range(4, TAYLOR_MAX_DEGREE + 1):
+        if term <= budget:
+            return N
+        term *= x / (N + 1)
+    return 0
+
+
+@njit(cache=True, fastmath=FMA, inline="always")
+def drive_tail(y, sn, cs, N):
+    """``(T, T')``: ``T = sum_{n=5..N} s_n y^(n-5) / n!``, ``T' = sum_{n=5..N} s_n y^(n-5) /
+    (n-1)!`` with ``s_n = sin^(n)(theta)`` (``sn, cs`` its sine and cosine).  The drive's terms
+    of degree >= 5 are ``A y^5 T`` in the gap and ``A w y^4 T'`` in its rate (``y = w u``)."""
+    s4 = (sn, cs, -sn, -cs)
+    T = 0.0
+    Tp = 0.0
+    for n in range(N, 4, -1):
+        s = s4[n % 4]
+        T = T * y + s * INV_FACTORIAL[n]
+        Tp = Tp * y + s * INV_FACTORIAL[n - 1]
+    return T, Tp
+
+
+@njit(cache=True, fastmath=FMA, inline="always")
+def gap_coefficients(sn, cs, xi, S, vx, kp):
+    """Taylor coefficients of degree 2 to 4 of the gap over one arc (see ``tiny_hop``).
+
+    At phase theta (``sn, cs``) and ``xi`` (mm, ``S = sqrt(R^2 - xi^2)``) with horizontal
+    velocity ``vx`` (mm/s): returns ``(F_2, g_2, g_3, g_4)``, ``g_n = F_n + B_n`` (mm/s^n).
+    """
+    A, w, R = kp.A, kp.w, kp.R
+    aw2 = A * w * w
+    R2 = R * R
+    inv_S = 1.0 / S
+    S3 = inv_S * inv_S * inv_S
+    S5 = S3 * inv_S * inv_S
+    vx2 = vx * vx
+    F2 = -kp.g - aw2 * sn
+    g2 = F2 + R2 * vx2 * S3
+    g3 = -aw2 * w * cs + 3.0 * R2 * xi * vx2 * vx * S5
+    g4 = aw2 * w * w * sn + 3.0 * R2 * (R2 + 4.0 * xi * xi) * vx2 * vx2 * S5 * inv_S * inv_S
+    return F2, g2, g3, g4
+
+
+@njit(cache=True, fastmath=FMA, inline="always")
+def gap_jerk_bound(vx, kp):
+    """Bound (mm/s^3) of the gap's third derivative on a tile: ``A w^3 + 3 R^2 h |vx|^3 /
+    c0^5`` (h = d/2)."""
+    c0 = kp.c0
+    c0_2 = c0 * c0
+    avx = abs(vx)
+    return kp.A * kp.w**3 + 3.0 * kp.R**2 * 0.5 * kp.d * avx * avx * avx / (c0_2 * c0_2 * c0)
+
+
+@njit(cache=True, fastmath=FMA, inline="always")
+def arc_remainder(vx, u, kp):
+    """Bound (mm) of the arc's part of the gap's Taylor remainder after degree 4 over ``u``
+    seconds: ``C5 |vx|^5 u^5 / 5!`` (``C5 = kp.arc5_bound``, see ``tiny_hop``)."""
+    vu = abs(vx) * u
+    return kp.arc5_bound * vu * vu * vu * vu * vu * (1.0 / 120.0)
+
+
+@njit(cache=True, fastmath=FMA, inline="always")
+def gap_series(t, G, Gp, g2, g3, g4, sn, cs, A, w, N):
+    """The gap's Taylor polynomial (mm) and its rate (mm/s) ``t`` s after a point where they
+    are ``G, Gp``: ``G + Gp t + g_2 t^2/2 + g_3 t^3/6 + g_4 t^4/24 + A y^5 T`` and its
+    derivative (``y = w t``, ``T`` of ``drive_tail`` to degree N; see ``tiny_hop``)."""
+    y = w * t
+    T, Tp = drive_tail(y, sn, cs, N)
+    y4 = y * y * y * y
+    c2, c3, c4 = 0.5 * g2, g3 * (1.0 / 6.0), g4 * (1.0 / 24.0)
+    P = G + t * (Gp + t * (c2 + t * (c3 + t * c4))) + A * y4 * y * T
+    dP = Gp + t * (g2 + t * (3.0 * c3 + t * (4.0 * c4))) + A * w * y4 * Tp
+    return P, dP
+
+
+@njit(cache=True, fastmath=FMA, inline="always")
+def series_rate(t, Fp, F2, sn, cs, A, w, N):
+    """The rate ``F'`` (mm/s) ``t`` s after a point where it is ``Fp``, from its series:
+    ``Fp + F_2 t + A w (-cos y^2 / 2 + sin y^3 / 6) + A w y^4 T'`` (``y = w t``, ``T'`` of
+    ``drive_tail`` to degree N; the arc has no part in it)."""
+    y = w * t
+    Tp = drive_tail(y, sn, cs, N)[1]
+    y2 = y * y
+    return Fp + F2 * t + A * w * y2 * (-0.5 * cs + y * (sn * (1.0 / 6.0)) + y2 * Tp)
+
+
+@njit(cache=True, fastmath=FMA, inline="always")
 def tiny_hop(sn, cs, xi0, S0, vx, vyrel, Gp, kp):
     """A short hop on one arc, solved from the Taylor polynomial of its gap (chattering).
 
     From an impact at phase theta (``sn, cs`` its sine and cosine) at ``xi0`` (``S0 =
     sqrt(R^2 - xi0^2)``) with gap rate ``Gp = G'(0) > 0``, the gap over the tile is
 
-        G(tau) = sum_{n=1..10} g_n tau^n / n! + r(tau),   g_n = F_n + B_n,
+        G(tau) = sum_{n=1..N} g_n tau^n / n! + r(tau),   g_n = F_n + B_n,
         F_1 = vyrel, F_2 = -g - A w^2 sin, F_n = A w^n sin^(n)(theta) for n >= 3
         (the flat gap: F_3 = -A w^3 cos, F_4 = A w^4 sin, F_5 = A w^5 cos, ...),
         B_1 = vx xi0 / S0, B_2 = R^2 vx^2 / S0^3, B_3 = 3 R^2 xi0 vx^3 / S0^5,
         B_4 = 3 R^2 (R^2 + 4 xi0^2) vx^4 / S0^7, B_n = 0 for n >= 5  (the arc, b(xi0) - b(xi))
 
-    with ``|r| <= A w^11 tau^11 / 11! + C5 |vx|^5 tau^5 / 5!``, ``C5 = 15 R^2 h (3 R^2 +
-    4 h^2) / c0^9`` (``kp.arc5_bound``) bounding the fifth derivative of S on the tile
-    (h = d/2).  Accepted
-    only if, up to ``tau_max = 2 tau_0`` (``tau_0 = -2 g_1 / g_2``, the parabola's hop):
+    with ``|r| <= A w^(N+1) tau^(N+1) / (N+1)! + C5 |vx|^5 tau^5 / 5!``, ``C5 = 15 R^2 h (3
+    R^2 + 4 h^2) / c0^9`` (``kp.arc5_bound``) bounding the fifth derivative of S on the tile
+    (h = d/2).  Accepted only if, up to ``tau_max = 2 tau_0`` (``tau_0 = -2 g_1 / g_2``, the
+    parabola's hop):
 
-    * the particle stays on the tile and ``G'' <= g_2 + K3 tau_max < 0``, with ``K3 = A
-      w^3 + 3 R^2 h |vx|^3 / c0^5`` bounding the third derivative: G is concave, so its
-      only root in ``(0, tau_max]`` is the contact (``G(tau_max) < 0`` follows from the
-      same bound);
-    * the remainder moves that root by less than eps tau_0 (``|r| <= eps g_1 tau_0``).
+    * the particle stays on the tile and ``G'' <= g_2 + K3 tau_max < 0``, with ``K3`` bounding
+      the third derivative (``gap_jerk_bound``): G is concave, so its only root in ``(0,
+      tau_max]`` is the contact (``G(tau_max) < 0`` follows from the same bound);
+    * the remainder moves that root by less than eps tau_0: N (``drive_degree``) puts the
+      drive's remainder in the rate below eps g_1 (in the gap below 0.4 eps g_1 tau_0), and
+      the arc's is below eps g_1 tau_0 / 2.
 
     The root of ``G / tau`` (no root at 0, no cancellation) is then found by Newton from
     tau_0.  Returns ``(tau, xi, vyrel_minus, ok)``: flight time (s), contact coordinate
     (mm), vertical velocity relative to the floor there (mm/s, ``F'`` from its series);
     ``ok = False`` when any condition fails (the caller then searches with safe steps).
     """
-    A, w, R, half = kp.A, kp.w, kp.R, 0.5 * kp.d
-    aw2 = A * w * w
-    inv_S = 1.0 / S0
-    R2 = R * R
-    F2 = -kp.g - aw2 * sn
-    g2 = F2 + R2 * vx * vx * inv_S * inv_S * inv_S
+    A, w, half = kp.A, kp.w, 0.5 * kp.d
+    aw = A * w
+    F2, g2, g3, g4 = gap_coefficients(sn, cs, xi0, S0, vx, kp)
     fail = (0.0, xi0, vyrel, False)
     if not g2 < 0.0:
         return fail
     tau0 = -2.0 * Gp / g2
     tau_max = 2.0 * tau0
-    if not (w * tau_max < TINY_HOP_MAX_SPAN and abs(xi0 + vx * tau_max) < half):
-        return fail
-    c0 = kp.c0
-    c0_2 = c0 * c0
-    avx = abs(vx)
-    aw3 = aw2 * w
-    K3 = aw3 + 3.0 * R2 * half * avx * avx * avx / (c0_2 * c0_2 * c0)
     x = w * tau_max
-    x2 = x * x
-    t5 = tau_max * tau_max * tau_max * tau_max * tau_max
-    remainder = A * x2 * x2 * x2 * x2 * x2 * x * (1.0 / 39916800.0)  # A (w tau)^11 / 11!
-    remainder += kp.arc5_bound * avx**5 * t5 * (1.0 / 120.0)
-    if not (g2 + K3 * tau_max < 0.0 and remainder <= EPS * Gp * tau0):
+    if not (x < TAYLOR_MAX_SPAN and abs(xi0 + vx * tau_max) < half):
         return fail
-    # G / tau = Gp + q1 tau + q2 tau^2 + q3 tau^3 + H(w tau): q_n = g_(n+1) / (n+1)!, and
-    # H(y) = A w sum_{n=5..10} s_n y^(n-1) / n! with s_n = sin^(n)(theta) the flat rest.
-    S5 = inv_S * inv_S * inv_S * inv_S * inv_S
-    aw = A * w
-    q1 = 0.5 * g2
-    q2 = (-aw3 * cs + 3.0 * R2 * xi0 * vx**3 * S5) / 6.0
-    q3 = (aw3 * w * sn + 3.0 * R2 * (R2 + 4.0 * xi0 * xi0) * vx**4 * S5 * inv_S * inv_S) / 24.0
-    h5, h6, h7 = aw * cs / 120.0, -aw * sn / 720.0, -aw * cs / 5040.0
-    h8, h9, h10 = aw * sn / 40320.0, aw * cs / 362880.0, -aw * sn / 3628800.0
+    K3 = gap_jerk_bound(vx, kp)
+    N = drive_degree(aw, x, EPS * Gp)
+    if not (N > 0 and g2 + K3 * tau_max < 0.0):
+        return fail
+    if not arc_remainder(vx, tau_max, kp) <= 0.5 * EPS * Gp * tau0:
+        return fail
+    # Newton on Q = G / tau (polynomial: Q = P / tau), Q' = (G' - Q) / tau
+    q2, q3 = g3 * (1.0 / 6.0), g4 * (1.0 / 24.0)
     t = tau0
-    for _ in range(TINY_HOP_NEWTON_MAX):
-        y = w * t
-        y3 = y * y * y
-        H = y3 * y * (h5 + y * (h6 + y * (h7 + y * (h8 + y * (h9 + y * h10)))))
-        dH = y3 * (
-            4.0 * h5
-            + y * (5.0 * h6 + y * (6.0 * h7 + y * (7.0 * h8 + y * (8.0 * h9 + y * (9.0 * h10)))))
-        )
-        Q = Gp + t * (q1 + t * (q2 + t * q3)) + H
-        dQ = q1 + t * (2.0 * q2 + t * (3.0 * q3)) + w * dH
+    for _ in range(TAYLOR_NEWTON_MAX):
+        P, dG = gap_series(t, 0.0, Gp, g2, g3, g4, sn, cs, A, w, N)
+        Q = P / t
+        dQ = (dG - Q) / t
         step = Q / dQ
         t -= step
         # Newton leaves an error of about |Q'' / 2 Q'| step^2; |Q''| <= 2 |q2| + 6 |q3| t +
-        # A w^3 y (the H term's is below A w^3 y / 9 for y < 1): stop once that is negligible
-        curv = 2.0 * abs(q2) + 6.0 * abs(q3) * t + aw * w * w * y
-        if step * step * curv <= TINY_HOP_NEWTON_REL * t * abs(dQ):
+        # A w^3 w t (the drive's tail's is below A w^4 t / 9 for w t < 1): stop once negligible
+        curv = 2.0 * abs(q2) + 6.0 * abs(q3) * t + aw * w * w * w * t
+        if step * step * curv <= TAYLOR_NEWTON_REL * t * abs(dQ):
             break
     else:
         return fail
     if not 0.0 < t < tau_max:
         return fail
-    # F'(t) = vyrel + F_2 t + A w sum_{n=3..10} s_n y^(n-1) / (n-1)!
-    y = w * t
-    c3, c4, c5, c6 = -cs / 2.0, sn / 6.0, cs / 24.0, -sn / 120.0
-    c7, c8, c9, c10 = -cs / 720.0, sn / 5040.0, cs / 40320.0, -sn / 362880.0
-    rest = c3 + y * (c4 + y * (c5 + y * (c6 + y * (c7 + y * (c8 + y * (c9 + y * c10))))))
-    Fp = vyrel + F2 * t + aw * y * y * rest
-    return t, xi0 + vx * t, Fp, True
+    return t, xi0 + vx * t, series_rate(t, vyrel, F2, sn, cs, A, w, N), True
 
 
-@njit(cache=True)
+@njit(cache=True, fastmath=FMA, inline="always")
+def taylor_finish(tau, G, Gp, Fp, sn, cs, xi, vx, room, kp):
+    """The contact of a descending flight from the Taylor polynomial of its gap.
+
+    ``tau`` s into a flight the gap is ``G > 0`` (mm) and falls, ``Gp = G' < 0`` (mm/s);
+    ``sn, cs`` are the sine and cosine of the phase reached, ``xi`` (mm) the point over the
+    tile, ``room`` (s) the time to the next tile crossing, ``Fp = F'`` (mm/s).  Over ``u``
+    more seconds, with ``g_n`` of ``gap_coefficients`` there (see ``tiny_hop``),
+
+        G(tau + u) = G + Gp u + g_2 u^2/2 + g_3 u^3/6 + g_4 u^4/24
+                     + A sum_{n=5..N} s_n (w u)^n / n! + r(u).
+
+    Accepted only if, up to ``u_max = 2 G / |Gp|`` (twice the tangent line's landing):
+
+    * the particle stays on the tile (``u_max < room``), and ``u_max <= tau``;
+    * G keeps falling: ``G' <= Gp + u_max max(0, g_2 + K3 u_max) = G'_max <= Gp / 2`` (``K3``
+      of ``gap_jerk_bound``), so the contact is the only root and lies before u_max
+      (``G(u_max) <= G + G'_max u_max < 0``);
+    * the remainder moves it by less than eps tau (the safe-step search stops at
+      ``ROOT_STEP_REL`` tau): N (``drive_degree``) puts the drive's remainder in the rate
+      below eps ``|G'_max|`` (the root moves by less than eps u_max / 5), the arc's is below
+      eps ``|G'_max|`` tau / 2.
+
+    Newton from ``G / |Gp|``.  Returns ``(u, xi_c, F'_c, ok)``: time to the contact (s), its
+    coordinate (mm), the vertical velocity relative to the floor there (mm/s); ``ok = False``
+    when a condition fails (the search then goes on with safe steps).
+    """
+    A, w = kp.A, kp.w
+    aw = A * w
+    fail = (0.0, xi, Fp, False)
+    u0 = G / -Gp
+    u_max = 2.0 * u0
+    x = w * u_max
+    if not (x < TAYLOR_MAX_SPAN and u_max < room and u_max <= tau):
+        return fail
+    F2, g2, g3, g4 = gap_coefficients(sn, cs, xi, arc_root(xi, kp), vx, kp)
+    K3 = gap_jerk_bound(vx, kp)
+    slope = -(Gp + u_max * max(0.0, g2 + K3 * u_max))  # |G'| >= slope on [0, u_max]
+    if not slope >= -0.5 * Gp:
+        return fail
+    N = drive_degree(aw, x, EPS * slope)
+    if not (N > 0 and arc_remainder(vx, u_max, kp) <= 0.5 * EPS * slope * tau):
+        return fail
+    t = u0
+    for _ in range(TAYLOR_NEWTON_MAX):
+        P, dP = gap_series(t, G, Gp, g2, g3, g4, sn, cs, A, w, N)
+        step = P / dP
+        t -= step
+        # the error Newton leaves, |P'' / 2 P'| step^2 with |P''| <= |g_2| + K3 t: negligible
+        if step * step * (abs(g2) + K3 * abs(t)) <= TAYLOR_NEWTON_REL * (tau + t) * abs(dP):
+            break
+    else:
+        return fail
+    if not 0.0 < t < u_max:
+        return fail
+    half = 0.5 * kp.d
+    xi_c = min(max(xi + vx * t, -half), half)
+    return t, xi_c, series_rate(t, Fp, F2, sn, cs, A, w, N), True
+
+
+@njit(cache=True, fastmath=FMA)
 def billiard_flight_rule(phase, xi0, vx, vyrel, kp, cubic):
     """``flight_search`` from the phase alone (its sine and cosine computed here)."""
     sn, cs = sin_cos(phase)
     return flight_search(phase, sn, cs, xi0, vx, vyrel, kp, cubic)
 
 
-@njit(cache=True)
+@njit(cache=True, fastmath=FMA)
 def flight_search(phase, sn, cs, xi0, vx, vyrel, kp, cubic):
     """First contact with the floor after an event (see the module docstring).
 
@@ -432,6 +565,12 @@ def flight_search(phase, sn, cs, xi0, vx, vyrel, kp, cubic):
             tc = max(crossing_time(xi0, k, vx, d), tau)
         if G <= 0.0 and tau > 0.0:
             return tau, k + k_base, xi, G_envp, n, OK
+        if cubic and Gp < 0.0 and w * G < (-0.5 * TAYLOR_MAX_SPAN) * Gp:
+            u, xi_c, Fp_c, solved = taylor_finish(
+                tau, G, Gp, G_envp, sn_t, cn_t, xi, vx, tc - tau, kp
+            )
+            if solved:
+                return tau + u, k + k_base, xi_c, Fp_c, n + 1, OK
         # -G'' <= m + K s ahead of tau (on the tile, and for the envelope everywhere)
         m = g + aw2 * sn_t + m_pad
         s_tile = flight_step(G, Gp, m, M, K, cubic)
@@ -466,7 +605,7 @@ def flight_search(phase, sn, cs, xi0, vx, vyrel, kp, cubic):
     return tau, k + k_base, xi, G_envp, ROOT_MAX_STEPS, ROOT_NOT_CONVERGED
 
 
-@njit(cache=True)
+@njit(cache=True, fastmath=FMA)
 def billiard_flight(phase, xi0, vx, vyrel, kp):
     """First contact with the floor after an event: ``billiard_flight_rule`` with cubic steps.
 
@@ -475,7 +614,7 @@ def billiard_flight(phase, xi0, vx, vyrel, kp):
     return billiard_flight_rule(phase, xi0, vx, vyrel, kp, True)
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, fastmath=FMA, inline="always")
 def shrinking_series(eps, q, r):
     """``F = sum_{m >= 0} eps^m / (1 - q r^m)``, ``dF/deps`` and a bound of F's rest, for
     ``0 <= eps, q, r < 1``.
@@ -499,7 +638,7 @@ def shrinking_series(eps, q, r):
     return total, slope, power * eps / ((1.0 - eps) * (1.0 - q))
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, fastmath=FMA, inline="always")
 def chatter_sum(cs, xi, S, vn, vt, g_eff, kp):
     """Closed-form sum of a chattering sequence on an arc (derivations/chattering.py).
 
@@ -568,7 +707,7 @@ def chatter_sum(cs, xi, S, vn, vt, g_eff, kp):
     return tau_inf, ds
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, fastmath=FMA, inline="always")
 def wedge_reflect(tile, xi, vx, vy, vn, vt, kp):
     """Wedge rule: reflect on the neighbouring arc while the velocity points into it.
 
@@ -600,7 +739,7 @@ def wedge_reflect(tile, xi, vx, vy, vn, vt, kp):
     return tile, xi, vx, vy, vn, vt, False
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, fastmath=FMA, inline="always")
 def snap_to_wedge(xi, kp):
     """Put a contact within ``WEDGE_TOL * d`` of a wedge on the wedge (``xi = +-d/2``)."""
     half = 0.5 * kp.d
@@ -611,7 +750,7 @@ def snap_to_wedge(xi, kp):
     return xi
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, fastmath=FMA, inline="always")
 def lands_at_once(periods, phase, vyrel, g_eff, kp):
     """True if a flight leaving a wedge lands again within the rounding of the time.
 
@@ -630,7 +769,7 @@ def lands_at_once(periods, phase, vyrel, g_eff, kp):
     return p1 == periods and ph1 == phase
 
 
-@njit(cache=True)
+@njit(cache=True, fastmath=FMA)
 def collide(periods, phase, tile, xi, vx, vyrel, kp):
     """``collide_trig`` from the phase alone; returns its event state without the trig."""
     sn, cs = sin_cos(phase)
@@ -638,7 +777,7 @@ def collide(periods, phase, tile, xi, vx, vyrel, kp):
     return out[:8]
 
 
-@njit(cache=True)
+@njit(cache=True, fastmath=FMA)
 def collide_trig(periods, phase, sn, cs, tile, xi, vx, vyrel, kp):
     """Apply the collision at ``(tile, xi)`` and decide whether chattering ends in a stick.
 
@@ -676,7 +815,7 @@ def collide_trig(periods, phase, sn, cs, tile, xi, vx, vyrel, kp):
     return periods, phase, tile, xi, vx, vyrel, IMPACT, OK, sn, cs
 
 
-@njit(cache=True)
+@njit(cache=True, fastmath=FMA)
 def billiard_event_rule(periods, phase, tile, xi, vx, vyrel, kind, kp, cubic):
     """``event_search`` from the phase alone; returns its event state without the trig.
 
@@ -691,7 +830,7 @@ def billiard_event_rule(periods, phase, tile, xi, vx, vyrel, kind, kp, cubic):
     return out[:8]
 
 
-@njit(cache=True)
+@njit(cache=True, fastmath=FMA)
 def event_search(periods, phase, sn, cs, tile, xi, vx, vyrel, kind, kp, cubic):
     """Advance the billiard from one event to the next (docs/model.md §2).
 
@@ -737,7 +876,7 @@ def event_search(periods, phase, sn, cs, tile, xi, vx, vyrel, kind, kp, cubic):
     return collide_trig(periods, phase, sn_c, cs_c, tile + k, xi_c, vx, vyrel_minus, kp)
 
 
-@njit(cache=True)
+@njit(cache=True, fastmath=FMA)
 def billiard_event(periods, phase, tile, xi, vx, vyrel, kind, kp):
     """Advance the billiard from one event to the next: ``billiard_event_rule`` with cubic steps.
 
@@ -746,7 +885,7 @@ def billiard_event(periods, phase, tile, xi, vx, vyrel, kind, kp):
     return billiard_event_rule(periods, phase, tile, xi, vx, vyrel, kind, kp, True)
 
 
-@njit(cache=True)
+@njit(cache=True, fastmath=FMA)
 def billiard_event_trig(periods, phase, sn, cs, tile, xi, vx, vyrel, kind, kp):
     """``billiard_event`` for a loop that carries ``sn, cs = sin, cos(phase)`` along.
 
@@ -757,7 +896,7 @@ def billiard_event_trig(periods, phase, sn, cs, tile, xi, vx, vyrel, kind, kp):
     return event_search(periods, phase, sn, cs, tile, xi, vx, vyrel, kind, kp, True)
 
 
-@njit(cache=True)
+@njit(cache=True, fastmath=FMA)
 def billiard_run(
     periods,
     phase,
@@ -795,7 +934,7 @@ def billiard_run(
     return out_phase.shape[0], OK
 
 
-@njit(cache=True)
+@njit(cache=True, fastmath=FMA)
 def billiard_run_count(periods, phase, tile, xi, vx, vyrel, kind, kp, n_events):
     """Iterate ``n_events`` events without storing them (benchmarks, transients).
 

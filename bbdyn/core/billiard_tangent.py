@@ -103,9 +103,10 @@ from bbdyn.core.flat import stick_release
 from bbdyn.core.floor import arc_root, bounce
 from bbdyn.core.plate import TWO_PI, advance_phase
 from bbdyn.core.status import IMPACT, NON_FINITE, OK, RELEASE, STICK, STUCK_FOREVER
+from bbdyn.core.tolerances import FMA
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, fastmath=FMA, inline="always")
 def set_identity(M):
     """Set the 4x4 array ``M`` to the identity (in place)."""
     for i in range(4):
@@ -113,7 +114,7 @@ def set_identity(M):
             M[i, j] = 1.0 if i == j else 0.0
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, fastmath=FMA, inline="always")
 def left_multiply(L, M, T):
     """``M <- L M`` for 4x4 arrays, with ``T`` a 4x4 scratch array."""
     for i in range(4):
@@ -127,7 +128,7 @@ def left_multiply(L, M, T):
             M[i, j] = T[i, j]
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, fastmath=FMA, inline="always")
 def section_to_flow(phase, xi, vx, vyrel, kp, M):
     """Write E (section coordinates -> fixed-time flow tangent, module docstring) into ``M``."""
     w = kp.w
@@ -146,7 +147,7 @@ def section_to_flow(phase, xi, vx, vyrel, kp, M):
     M[3, 3] = 1.0
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, fastmath=FMA, inline="always")
 def flow_to_section(phase, xi, vx, vyrel, kp, M):
     """Write C (fixed-time flow tangent just after an event -> section coordinates) into ``M``."""
     w = kp.w
@@ -164,7 +165,7 @@ def flow_to_section(phase, xi, vx, vyrel, kp, M):
     M[3, 1] = acc / hdot
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, fastmath=FMA, inline="always")
 def flight_flow(tau, M):
     """``M <- Phi(tau) M``: a free flight of ``tau`` s (rows x += tau vx, y += tau vy)."""
     for j in range(4):
@@ -172,7 +173,7 @@ def flight_flow(tau, M):
         M[1, j] += tau * M[3, j]
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, fastmath=FMA, inline="always")
 def saltation(phase, xi, vx, vyrel, kp, M):
     """Write the saltation matrix of an impact at ``xi`` into ``M`` (module docstring).
 
@@ -217,7 +218,7 @@ def saltation(phase, xi, vx, vyrel, kp, M):
     return vxp, vyp, vnp, vtp
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, fastmath=FMA, inline="always")
 def chatter_stick_rows(phase, xi, vx, vyrel, kp, M):
     """Write K (section coordinates just after the last impact -> stick point) into ``M``.
 
@@ -259,14 +260,16 @@ def chatter_stick_rows(phase, xi, vx, vyrel, kp, M):
         d_eps = (2.0 * vt * d_vt - eps * (d_geff * S + g_eff * d_S)) / (g_eff * S)
         d_tau0 = 2.0 * d_vn / g0 - tau0 * d_g0 / g0
         d_gt = (d_geff * xi + g_eff * d_xi) / R
-        d_ds = H * (d_vt * tau0 + vt * d_tau0) + vt * tau0 * dH * d_eps + c2 * (
-            d_gt * tau0 * tau0 + 2.0 * g_t * tau0 * d_tau0
+        d_ds = (
+            H * (d_vt * tau0 + vt * d_tau0)
+            + vt * tau0 * dH * d_eps
+            + c2 * (d_gt * tau0 * tau0 + 2.0 * g_t * tau0 * d_tau0)
         )
         M[0, j] = d_th + w * (d_tau0 * F + tau0 * dF * d_eps)
         M[1, j] = d_xi * cr + d_S * sr + (S * cr - xi * sr) * d_ds / R
 
 
-@njit(cache=True)
+@njit(cache=True, fastmath=FMA)
 def billiard_tangent_event(periods, phase, tile, xi, vx, vyrel, kind, kp, J, W, T):
     """Advance the billiard by one event and write the event map's Jacobian into ``J``.
 
@@ -340,13 +343,13 @@ def billiard_tangent_event(periods, phase, tile, xi, vx, vyrel, kind, kp, J, W, 
     return out
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, fastmath=FMA, inline="always")
 def lifted_phase(periods, phase):
     """Lifted phase ``w t = 2 pi periods + phase`` (rad)."""
     return TWO_PI * periods + phase
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, fastmath=FMA, error_model="numpy")
 def billiard_tangent_run(
     periods, phase, tile, xi, vx, vyrel, kind, kp, t_ends, vec,
     out_log, out_collisions, out_collapses, out_time,

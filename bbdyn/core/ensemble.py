@@ -56,6 +56,7 @@ from bbdyn.core.observables import (
 )
 from bbdyn.core.plate import plate_height_sin, plate_velocity_cos, sin_cos
 from bbdyn.core.status import IMPACT, OK, RELEASE, STICK, STUCK_FOREVER
+from bbdyn.core.tolerances import FMA
 
 #: Bit flags selecting the observables an ensemble computes.
 OBS_DISPLACEMENT = 1
@@ -163,7 +164,7 @@ class EnsembleOut(NamedTuple):
     status: np.ndarray  # int64 (n,): RUNNING on entry to advance; then a core.status code
 
 
-@njit(cache=True)
+@njit(cache=True, fastmath=FMA)
 def initial_states(ics, kp, states):
     """Kernel states of post-collision initial conditions on the floor of tile 0 at t = 0.
 
@@ -201,7 +202,7 @@ def initial_states(ics, kp, states):
 
 # Inlined into the event loop, as integrate_blocks: called with the Event tuple, the two
 # calls cost about 2 % of the ensemble's speed (python benchmarks/kernel_buffers.py).
-@njit(cache=True, inline="always")
+@njit(cache=True, fastmath=FMA, inline="always")
 def accumulate_interval(acc, j, ev, trig, b, lo, hi, kp, energy):
     """Add to row ``j`` of ``acc`` the integrals over ``[lo, hi]`` of the motion since ``ev``.
 
@@ -232,7 +233,7 @@ def accumulate_interval(acc, j, ev, trig, b, lo, hi, kp, energy):
 
 
 # Inlined into the event loop (see accumulate_interval).
-@njit(cache=True, inline="always")
+@njit(cache=True, fastmath=FMA, inline="always")
 def integrate_blocks(acc, ev, trig, hi, window, kp, energy):
     """Integrate the motion since the event ``ev`` up to ``hi``, per block of the window.
 
@@ -263,7 +264,7 @@ def integrate_blocks(acc, ev, trig, hi, window, kp, energy):
             accumulate_interval(acc, j, ev, trig, b, (a_p, a_ph), (z_p, z_ph), kp, energy)
 
 
-@njit(cache=True)
+@njit(cache=True, fastmath=FMA)
 def split_row(acc, ev, trig, hi, p0, split, kp, energy):
     """Row 1 of ``acc`` := row 0 plus the part in ``[p0, split]`` of the motion ``ev`` to ``hi``.
 
@@ -279,7 +280,7 @@ def split_row(acc, ev, trig, hi, p0, split, kp, energy):
         integrate_blocks(acc[1:], ev, trig, hi, Window(p0, split - p0, 1), kp, energy)
 
 
-@njit(cache=True)
+@njit(cache=True, fastmath=FMA)
 def integrate_to_split(acc, ev, p0, split, kp, energy):
     """Add to row 1 of ``acc`` the motion from the event ``ev`` up to ``split``, event by event.
 
@@ -306,7 +307,7 @@ def integrate_to_split(acc, ev, p0, split, kp, energy):
         kind, trig = nxt[6], (nxt[8], nxt[9])  # hi is that event's time unless the loop ends
 
 
-@njit(cache=True)
+@njit(cache=True, fastmath=FMA)
 def fast_forward(carry, i, n_rel, ev, k, bound, window, split, kp, energy, out):
     """Skip whole stick-release cycles of particle ``i`` once a release state repeats bitwise.
 
@@ -415,7 +416,7 @@ def fast_forward(carry, i, n_rel, ev, k, bound, window, split, kp, energy, out):
     return 0, 0.0, 0.0, n_rel + 1
 
 
-@njit(cache=True)
+@njit(cache=True, fastmath=FMA)
 def start_particles(states, carry_state):
     """Write the loop state of particles starting at ``states`` (n, 7) into ``carry_state``."""
     for i in range(states.shape[0]):
@@ -432,7 +433,7 @@ def start_particles(states, carry_state):
         carry_state[i, C_NREL] = 0.0
 
 
-@njit(cache=True)
+@njit(cache=True, fastmath=FMA)
 def particle_loop(carry, i, budget, kp, times, out, obs, th):
     """Integrate particle ``i`` for at most ``budget`` events toward the end; fill its outputs.
 
@@ -607,7 +608,7 @@ def particle_loop(carry, i, budget, kp, times, out, obs, th):
     return status
 
 
-@njit(cache=True, parallel=True)
+@njit(cache=True, fastmath=FMA, parallel=True)
 def run_ensemble(carry, budget, kp, times, obs, out):
     """Advance every running particle by at most ``budget`` events (prange over particles).
 
@@ -639,7 +640,7 @@ def run_ensemble(carry, budget, kp, times, obs, out):
         status[i] = particle_loop(carry, i, budget, kp, times, out, obs, None)
 
 
-@njit(cache=True, parallel=True)
+@njit(cache=True, fastmath=FMA, parallel=True)
 def run_features(carry, budget, kp, times, th, out):
     """Advance every running particle by at most ``budget`` events, filling the features.
 

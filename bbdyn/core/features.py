@@ -42,6 +42,7 @@ import numpy as np
 from numba import njit
 
 from bbdyn.core.plate import TWO_PI
+from bbdyn.core.tolerances import FMA
 
 #: Columns of ``blocks`` (the first four are those of ``core.ensemble.ACC_*``).
 BF_EX, BF_EY, BF_POT, BF_STUCK = 0, 1, 2, 3
@@ -90,14 +91,14 @@ class Collision(NamedTuple):
     jumped: bool  # the trap changed at this collision
 
 
-@njit(cache=True)
+@njit(cache=True, fastmath=FMA)
 def block_of(periods, p0, L, nb):
     """Block index (0..nb-1) of a time with ``periods`` whole periods (clamped)."""
     j = int(math.floor((periods - p0) / L))
     return min(max(j, 0), nb - 1)
 
 
-@njit(cache=True)
+@njit(cache=True, fastmath=FMA)
 def feature_collision(out, i, ring, n_ring, run, hit, th, kp):
     """Add one collision in the window to the features of particle ``i``.
 
@@ -165,7 +166,7 @@ def feature_collision(out, i, ring, n_ring, run, hit, th, kp):
     return n_ring + 1, run
 
 
-@njit(cache=True)
+@njit(cache=True, fastmath=FMA)
 def feature_finish(glob, mism, n_ring, run):
     """Close the features of one particle at the end of its run.
 

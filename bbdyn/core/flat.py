@@ -72,13 +72,14 @@ from bbdyn.core.status import (
 from bbdyn.core.tolerances import (
     CHATTER_REL_TOL,
     EPS,
+    FMA,
     RELEASE_WINDOW_PAD,
     ROOT_MAX_STEPS,
     ROOT_STEP_REL,
 )
 
 
-@njit(cache=True, inline="always", error_model="numpy")
+@njit(cache=True, fastmath=FMA, inline="always", error_model="numpy")
 def safe_step(G, Gp, M):
     """Positive root of ``G + Gp s - M s^2 / 2 = 0`` (G >= 0, M > 0), without cancellation."""
     r = math.sqrt(Gp * Gp + 2.0 * M * G)
@@ -87,7 +88,7 @@ def safe_step(G, Gp, M):
     return 2.0 * G / (r - Gp)
 
 
-@njit(cache=True, inline="always", error_model="numpy")
+@njit(cache=True, fastmath=FMA, inline="always", error_model="numpy")
 def flat_gap_phase(vrel, g, A, w, s0, c0, tau):
     """Gap G (mm), its rate G' (mm/s), and sin, cos of the phase theta + w tau.
 
@@ -105,14 +106,14 @@ def flat_gap_phase(vrel, g, A, w, s0, c0, tau):
     return G, Gp, s0 * cos_x + c0 * sin_x, c0 * cos_x - s0 * sin_x
 
 
-@njit(cache=True, inline="always", error_model="numpy")
+@njit(cache=True, fastmath=FMA, inline="always", error_model="numpy")
 def flat_gap(vrel, g, A, w, s0, c0, tau):
     """Gap G (mm) and its rate G' (mm/s) at ``tau`` after an event at phase theta."""
     G, Gp, _, _ = flat_gap_phase(vrel, g, A, w, s0, c0, tau)
     return G, Gp
 
 
-@njit(cache=True, inline="always", error_model="numpy")
+@njit(cache=True, fastmath=FMA, inline="always", error_model="numpy")
 def cubic_safe_step(G, Gp, m, M, K):
     """A step s > 0 before which the gap cannot vanish, from its cubic Taylor bound.
 
@@ -132,7 +133,7 @@ def cubic_safe_step(G, Gp, m, M, K):
     return safe_step(G, Gp, min(M, m + K * h * (1.0 / 3.0)))
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, fastmath=FMA, error_model="numpy")
 def flat_flight_tol(phase, vrel, kp, step_rel):
     """``flat_flight`` with stopping tolerance ``step_rel``, and its gap evaluations.
 
@@ -230,7 +231,7 @@ def flat_flight_tol(phase, vrel, kp, step_rel):
     return tau, Gp, ROOT_NOT_CONVERGED, n_evals
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, fastmath=FMA, error_model="numpy")
 def flat_flight_evals(phase, vrel, kp):
     """``flat_flight`` that also returns the number of gap evaluations it made.
 
@@ -240,7 +241,7 @@ def flat_flight_evals(phase, vrel, kp):
     return flat_flight_tol(phase, vrel, kp, ROOT_STEP_REL)
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, fastmath=FMA, error_model="numpy")
 def flat_flight(phase, vrel, kp):
     """Time to the first contact after an event, and the relative velocity there.
 
@@ -267,7 +268,7 @@ def flat_flight(phase, vrel, kp):
     return tau, vrel_minus, status
 
 
-@njit(cache=True, inline="always", error_model="numpy")
+@njit(cache=True, fastmath=FMA, inline="always", error_model="numpy")
 def chatter_time(phase, vrel, kp):
     """Accumulation time (s) of the chattering sequence started with ``vrel`` at ``phase``.
 
@@ -299,7 +300,7 @@ def chatter_time(phase, vrel, kp):
     return tau_inf
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, fastmath=FMA, error_model="numpy")
 def stick_release(periods, phase, gamma):
     """Time of the release that ends a stick at ``(periods, phase)`` (flat ball and billiard).
 
@@ -325,7 +326,7 @@ def stick_release(periods, phase, gamma):
     return periods + 1.0, theta_r, OK
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, fastmath=FMA, error_model="numpy")
 def flat_event(periods, phase, vrel, kind, kp):
     """Advance the flat ball from one event to the next.
 
@@ -369,7 +370,7 @@ def flat_event(periods, phase, vrel, kind, kp):
     return periods, phase, vrel_plus, IMPACT, OK
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, fastmath=FMA, error_model="numpy")
 def flat_run(periods, phase, vrel, kind, kp, out_periods, out_phase, out_vrel, out_kind):
     """Iterate ``flat_event`` and write each event into the ``out_*`` arrays (in place).
 
@@ -386,7 +387,7 @@ def flat_run(periods, phase, vrel, kind, kp, out_periods, out_phase, out_vrel, o
     return out_phase.shape[0], OK
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, fastmath=FMA, error_model="numpy")
 def flat_run_count(periods, phase, vrel, kind, kp, n_events):
     """Iterate ``n_events`` events without storing them (for benchmarks and transients).
 

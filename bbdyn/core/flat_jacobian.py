@@ -11,9 +11,10 @@ from numba import njit
 from bbdyn.core.flat import flat_flight
 from bbdyn.core.plate import sin_minus_x
 from bbdyn.core.status import NON_FINITE, OK
+from bbdyn.core.tolerances import FMA
 
 
-@njit(cache=True)
+@njit(cache=True, fastmath=FMA)
 def flat_map_jacobian(phase, vrel, kp):
     """One impact of the exact map and its Jacobian in ``(theta, vrel)``.
 
@@ -27,7 +28,7 @@ def flat_map_jacobian(phase, vrel, kp):
     return x, vrel_new, jac, status
 
 
-@njit(cache=True)
+@njit(cache=True, fastmath=FMA)
 def flat_map_jacobian_entries(phase, vrel, kp):
     """One impact of the exact map and its Jacobian in ``(theta, vrel)``.
 

@@ -22,27 +22,29 @@ import math
 import numpy as np
 from numba import njit
 
+from bbdyn.core.tolerances import FMA
 
-@njit(cache=True, inline="always")
+
+@njit(cache=True, fastmath=FMA, inline="always")
 def arc_root(xi, kp):
     """S = sqrt(R^2 - xi^2) (mm): the height of the arc point above the arc centre."""
     return math.sqrt((kp.R - xi) * (kp.R + xi))
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, fastmath=FMA, inline="always")
 def floor_height_rel(xi, kp):
     """Arc height b(xi) above the wedges (mm), ``(d/2 - xi)(d/2 + xi) / (S + c0)``."""
     half = 0.5 * kp.d
     return (half - xi) * (half + xi) / (arc_root(xi, kp) + kp.c0)
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, fastmath=FMA, inline="always")
 def floor_slope(xi, kp):
     """Slope db/dxi = -xi / S of the arc (dimensionless)."""
     return -xi / arc_root(xi, kp)
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, fastmath=FMA, inline="always")
 def floor_drop(dx, xi0, xi1, S0, S1):
     """b(xi0) - b(xi1) (mm) as ``dx (xi1 + xi0) / (S0 + S1)``, without cancellation.
 
@@ -52,13 +54,13 @@ def floor_drop(dx, xi0, xi1, S0, S1):
     return dx * (xi1 + xi0) / (S0 + S1)
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, fastmath=FMA, inline="always")
 def arc_length(xi, kp):
     """Arc length s (mm) from the left wedge to ``xi``, clockwise: R (asin(xi/R) + asin(d/2R))."""
     return kp.R * (math.asin(xi / kp.R) + math.asin(0.5 * kp.d / kp.R))
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, fastmath=FMA, inline="always")
 def xi_from_arc_length(s, kp):
     """Inverse of ``arc_length``: xi = R sin(s / R - asin(d / 2R)) (mm), clamped to the tile."""
     half = 0.5 * kp.d
@@ -66,19 +68,19 @@ def xi_from_arc_length(s, kp):
     return min(max(xi, -half), half)
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, fastmath=FMA, inline="always")
 def normal_velocity(xi, S, vx, vy, R):
     """Components (V_n, V_t) of a velocity (vx, vy) along n = (xi, S)/R and t = (S, -xi)/R."""
     return (vx * xi + vy * S) / R, (vx * S - vy * xi) / R
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, fastmath=FMA, inline="always")
 def from_normal_velocity(xi, S, vn, vt, R):
     """Cartesian (vx, vy) of the velocity with components (V_n, V_t) at ``xi``."""
     return (vn * xi + vt * S) / R, (vn * S - vt * xi) / R
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, fastmath=FMA, inline="always")
 def bounce(xi, vx, vyrel, kp):
     """Restitution law at the arc point ``xi`` (docs/model.md §2).
 
@@ -105,7 +107,7 @@ def bounce(xi, vx, vyrel, kp):
     return vx_new, vy_new, vn, vt
 
 
-@njit(cache=True)
+@njit(cache=True, fastmath=FMA)
 def arc_coordinates(xi, kp):
     """Arc length s and height b (mm) of every local coordinate in the array ``xi``."""
     s = np.empty_like(xi)

@@ -10,16 +10,17 @@ import math
 from numba import njit
 
 from bbdyn.core.plate import TWO_PI
+from bbdyn.core.tolerances import FMA
 
 
-@njit(cache=True)
+@njit(cache=True, fastmath=FMA)
 def hb_step(phase, V, gamma, alpha):
     """One bounce of the dissipative standard map; returns ``(phase' mod 2 pi, V')``."""
     phase_new = (phase + V) % TWO_PI
     return phase_new, alpha * V - 2.0 * (1.0 + alpha) * gamma * math.cos(phase_new)
 
 
-@njit(cache=True)
+@njit(cache=True, fastmath=FMA)
 def hb_run(phase, V, gamma, alpha, out_phase, out_V):
     """Iterate ``hb_step`` and write the phases and velocities into ``out_*`` (in place).
 

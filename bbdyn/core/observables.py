@@ -25,20 +25,22 @@ import math
 
 from numba import njit
 
+from bbdyn.core.tolerances import FMA
 
-@njit(cache=True, inline="always")
+
+@njit(cache=True, fastmath=FMA, inline="always")
 def time_between(periods1, phase1, periods0, phase0, w, period):
     """Time (s) from ``(periods0, phase0)`` to ``(periods1, phase1)``; negative if earlier."""
     return (periods1 - periods0) * period + (phase1 - phase0) / w
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, fastmath=FMA, inline="always")
 def is_before(periods1, phase1, periods0, phase0):
     """True if time ``(periods1, phase1)`` is strictly earlier than ``(periods0, phase0)``."""
     return periods1 < periods0 or (periods1 == periods0 and phase1 < phase0)
 
 
-@njit(cache=True)
+@njit(cache=True, fastmath=FMA)
 def flight_integrals(vx, vy0, y0, g, ta, tb):
     """Integrals over ``[ta, tb]`` (s after the flight's start) of one parabolic flight.
 
@@ -73,7 +75,7 @@ def flight_integrals(vx, vy0, y0, g, ta, tb):
     return I_Ex, I_Ey, I_pot
 
 
-@njit(cache=True)
+@njit(cache=True, fastmath=FMA)
 def stuck_integrals(A, w, g, b, phase_a, dt):
     """Integrals over ``dt`` seconds from phase ``phase_a`` of a particle riding the floor.
 
@@ -105,7 +107,7 @@ def stuck_integrals(A, w, g, b, phase_a, dt):
     return I_Ey, I_pot
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, fastmath=FMA, inline="always")
 def trap_of(tile, xi):
     """Trap (wedge index, integer-valued float) of a contact at ``xi`` in tile ``tile``."""
     if xi >= 0.0:
@@ -113,7 +115,7 @@ def trap_of(tile, xi):
     return tile
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, fastmath=FMA, inline="always")
 def displacement(tile, xi, tile0, xi0, d):
     """``x - x0`` (mm) between ``(tile, xi)`` and ``(tile0, xi0)``, the tile part first.
 

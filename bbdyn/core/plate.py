@@ -19,6 +19,8 @@ import math
 
 from numba import njit
 
+from bbdyn.core.tolerances import FMA
+
 TWO_PI = 2.0 * math.pi
 
 # Cody-Waite split of pi/2 (fdlibm): 33 leading bits each, so k * _PIO2_1 and
@@ -44,7 +46,7 @@ _KC5 = 2.08757232129817482790e-09
 _KC6 = -1.13596475577881948265e-11
 
 
-@njit(cache=True, inline="always", error_model="numpy")
+@njit(cache=True, fastmath=FMA, inline="always", error_model="numpy")
 def sin_cos(y):
     """``(sin y, cos y)`` to about one ulp, inlined (a libm sincos call costs ~3x more).
 
@@ -86,7 +88,7 @@ _S17 = 1.0 / 355687428096000.0
 _S19 = -1.0 / 121645100408832000.0
 
 
-@njit(cache=True, inline="always", error_model="numpy")
+@njit(cache=True, fastmath=FMA, inline="always", error_model="numpy")
 def sin_minus_x(x):
     """``sin(x) - x`` without cancellation for small ``|x|`` (Taylor series below 0.5)."""
     if abs(x) >= 0.5:
@@ -103,13 +105,13 @@ def sin_minus_x(x):
     return x * x2 * poly
 
 
-@njit(cache=True, inline="always", error_model="numpy")
+@njit(cache=True, fastmath=FMA, inline="always", error_model="numpy")
 def plate_rise(A, s0, c0, x, sin_x, sin_half):
     """y_p(t+tau) - y_p(t) - u(t) tau (mm) for x = w tau; sin_x = sin x, sin_half = sin(x/2)."""
     return A * (2.0 * s0 * sin_half * sin_half - c0 * sin_minus_x_given(x, sin_x))
 
 
-@njit(cache=True, inline="always", error_model="numpy")
+@njit(cache=True, fastmath=FMA, inline="always", error_model="numpy")
 def sin_minus_x_given(x, sin_x):
     """``sin(x) - x`` reusing an already computed ``sin_x`` when that is accurate."""
     if abs(x) >= 0.5:
@@ -117,37 +119,37 @@ def sin_minus_x_given(x, sin_x):
     return sin_minus_x(x)
 
 
-@njit(cache=True, inline="always", error_model="numpy")
+@njit(cache=True, fastmath=FMA, inline="always", error_model="numpy")
 def plate_dvel(A, w, s0, c0, sin_x, sin_half):
     """u(t+tau) - u(t) (mm/s) for x = w tau."""
     return A * w * (2.0 * c0 * sin_half * sin_half + s0 * sin_x)
 
 
-@njit(cache=True, inline="always", error_model="numpy")
+@njit(cache=True, fastmath=FMA, inline="always", error_model="numpy")
 def plate_velocity(A, w, phase):
     """u = -A w cos(phase) (mm/s)."""
     return plate_velocity_cos(A, w, math.cos(phase))
 
 
-@njit(cache=True, inline="always", error_model="numpy")
+@njit(cache=True, fastmath=FMA, inline="always", error_model="numpy")
 def plate_velocity_cos(A, w, cos_phase):
     """u (mm/s) from ``cos_phase = cos(phase)`` already computed."""
     return -A * w * cos_phase
 
 
-@njit(cache=True, inline="always", error_model="numpy")
+@njit(cache=True, fastmath=FMA, inline="always", error_model="numpy")
 def plate_height(A, phase):
     """y_p = -A sin(phase) (mm)."""
     return plate_height_sin(A, math.sin(phase))
 
 
-@njit(cache=True, inline="always", error_model="numpy")
+@njit(cache=True, fastmath=FMA, inline="always", error_model="numpy")
 def plate_height_sin(A, sin_phase):
     """y_p (mm) from ``sin_phase = sin(phase)`` already computed."""
     return -A * sin_phase
 
 
-@njit(cache=True, inline="always", error_model="numpy")
+@njit(cache=True, fastmath=FMA, inline="always", error_model="numpy")
 def advance_phase(periods, phase, dphase):
     """Add ``dphase`` (rad, >= 0) to the time kept as (whole periods, phase in [0, 2 pi)).
 
@@ -166,7 +168,7 @@ def advance_phase(periods, phase, dphase):
     return periods + whole, phase_new
 
 
-@njit(cache=True, inline="always", error_model="numpy")
+@njit(cache=True, fastmath=FMA, inline="always", error_model="numpy")
 def release_window(gamma):
     """Phases (theta_r, theta_e) between which sin(theta) < -1/Gamma.
 

@@ -28,9 +28,10 @@ from bbdyn.core.flat import flat_event
 from bbdyn.core.flat_jacobian import flat_map_jacobian_entries
 from bbdyn.core.plate import TWO_PI
 from bbdyn.core.status import IMPACT, OK, STICK, STUCK_FOREVER
+from bbdyn.core.tolerances import FMA
 
 
-@njit(cache=True, inline="always", error_model="numpy")
+@njit(cache=True, fastmath=FMA, inline="always", error_model="numpy")
 def gram_schmidt_2(q00, q10, q01, q11, j00, j01, j10, j11):
     """One QR step of the 2D frame: ``J Q = Q' R``.
 
@@ -52,13 +53,13 @@ def gram_schmidt_2(q00, q10, q01, q11, j00, j01, j10, j11):
     return e0, e1, c0 / r11, c1 / r11, math.log(r00), math.log(r11)
 
 
-@njit(cache=True, inline="always", error_model="numpy")
+@njit(cache=True, fastmath=FMA, inline="always", error_model="numpy")
 def event_time(periods, phase):
     """Time of an event in driving periods (float)."""
     return periods + phase / TWO_PI
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, fastmath=FMA, error_model="numpy")
 def flat_tangent_run(
     periods, phase, vrel, kind, kp, t_ends, frame, out_log, out_impacts, out_collapses, out_time
 ):

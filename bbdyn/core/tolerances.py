@@ -70,13 +70,16 @@ WEDGE_TOL = 4.0 * EPS
 #: into the wedge; the wedge is so obtuse that one or two are the rule.
 WEDGE_MAX_REFLECTIONS = 16
 
-#: Tiny hops (``billiard.tiny_hop``): tried when the hop's phase span ``2 w tau_0`` (tau_0
-#: the parabola's flight time) is below this, and solved when the Taylor remainder moves
-#: the contact by less than eps tau_0; Newton stops once the error its last step leaves is
-#: below TINY_HOP_NEWTON_REL of the flight time, after at most TINY_HOP_NEWTON_MAX steps.
-TINY_HOP_MAX_SPAN = 0.5
-TINY_HOP_NEWTON_REL = 4.0 * EPS
-TINY_HOP_NEWTON_MAX = 8
+#: Contacts from the Taylor polynomial of the gap (``billiard.tiny_hop``, a chattering hop
+#: from its impact; ``billiard.taylor_finish``, the end of a descending flight): tried when
+#: the polynomial's span ``w u_max`` (rad; ``u_max`` twice the first guess) is below
+#: TAYLOR_MAX_SPAN, written to the lowest degree (4 to TAYLOR_MAX_DEGREE) whose remainder
+#: in the rate is below eps of it; Newton stops once the error its last step leaves is
+#: below TAYLOR_NEWTON_REL of the flight time, after at most TAYLOR_NEWTON_MAX steps.
+TAYLOR_MAX_SPAN = 0.5
+TAYLOR_MAX_DEGREE = 16
+TAYLOR_NEWTON_REL = 4.0 * EPS
+TAYLOR_NEWTON_MAX = 8
 
 #: Gap of the billiard checked by the tests: never below -GAP_REL_TOL times the
 #: scale of the terms of the gap (``|vyrel| tau + g tau^2 + A + h``), a few ulp each.
@@ -135,3 +138,13 @@ DEPARTURE_MAX_TRIES = 64
 #: only when ``Gamma sin(phase) < -1 + RELEASE_WINDOW_PAD``: a cheap superset test, padded
 #: so that rounding of ``Gamma sin(phase)`` never skips a phase inside the window.
 RELEASE_WINDOW_PAD = 1e-9
+
+# ---- floating point (every core kernel) ---------------------------------------------
+
+#: LLVM fast-math flags of every core kernel: only "contract", so that ``a * b + c`` may be
+#: one fused multiply-add, rounded once instead of twice.  Never less accurate; no
+#: reassociation, no assumptions about inf or nan; the same code in every thread (python
+#: benchmarks/kernel_buffers.py measured the ensemble 8 % faster).  Every kernel must carry
+#: the same flags (tests/test_architecture.py): numba may reuse a helper compiled for one
+#: caller in another, so mixed flags would make results depend on the order of compilation.
+FMA = {"contract"}

@@ -55,9 +55,31 @@ def compute(settings: dict, seed: int = 0) -> PoincareResult:
         "major_regions": int(major.size),
         "fraction_in_major_regions": float(counts[major - 1].sum() / impacts.sum()),
         "visit_sequence_start": seq[:24].tolist(),
+        "cycle_order": cycle_order(seq[:24], major),
         "mean_flight_periods": float(np.mean(res["flight"][impacts])),
     }
     return res
+
+
+def cycle_order(seq, major) -> list[int]:
+    """Order of the ``major`` regions in the cycle that the visits ``seq`` go round.
+
+    Every visit goes on to a region later in the order, or back to region 1 (regions are
+    numbered by first visit, so one that the first cycle leaves out is numbered late).
+    Visits to other regions are skipped; ``[]`` if the visits admit no such order.
+    """
+    import graphlib
+
+    keep = set(int(r) for r in major)
+    visits = [int(r) for r in seq if int(r) in keep]
+    graph = graphlib.TopologicalSorter()
+    for a, b in zip(visits[:-1], visits[1:], strict=True):
+        if b != 1 and a != b:
+            graph.add(b, a)
+    try:
+        return list(graph.static_order())
+    except graphlib.CycleError:
+        return []
 
 
 def draw(result: PoincareResult, ax=None):
