@@ -155,12 +155,13 @@ def test_bench_billiard_cli_json(tmp_path, capsys):
 
 
 def test_the_docs_numbers_are_those_of_the_committed_run():
-    """docs/benchmarks.md shows the table of docs/bench/billiard_bd1e3d6.json and states its
-    numbers in the findings below it."""
+    """docs/benchmarks.md shows the table of docs/bench/billiard_7c21b69.json and states its
+    numbers in the findings below it, and those of the previous run (bd1e3d6) it cites."""
     from bbdyn.results import load_result
 
     root = Path(__file__).resolve().parents[1]
-    result = load_result(root / "docs" / "bench" / "billiard_bd1e3d6.json")
+    result = load_result(root / "docs" / "bench" / "billiard_7c21b69.json")
+    before = load_result(root / "docs" / "bench" / "billiard_bd1e3d6.json")
     raw = (root / "docs" / "benchmarks.md").read_text()
     assert bench.table(result) in raw
     text = " ".join(raw.split())
@@ -195,6 +196,16 @@ def test_the_docs_numbers_are_those_of_the_committed_run():
         f"{math.hypot(fs[0]['E_y_se'], ref['E_y_se']):.1f} ({fs[0]['E_y_diff_in_se']:.1f} and "
         f"{fs[1]['E_y_diff_in_se']:.1f} se)",
         f"{100 * (fs[0]['E'] - ref['E']) / ref['E']:.1f} % of E",
+    ]
+    # the previous run, cited: its one-flight and ensemble speeds and its exact D at 85.2 Hz
+    rows0, ref0 = before.meta["rows"], before.meta["observables"][0]
+    ens0 = next(r for r in rows0 if "ensemble" in r["setting"])
+    se = math.hypot(ref["D_se"], ref0["D_se"])
+    expected += [
+        f"gave {rows0[0]['collisions_per_s'] / 1e6:.2f}e6 collisions/s for one flight and "
+        f"{ens0['collisions_per_s'] / 1e6:.2f}e6 for the ensemble",
+        f"moved from {ref0['D']:.1f} +- {ref0['D_se']:.1f} (bd1e3d6) to {ref['D']:.2f} +- "
+        f"{ref['D_se']:.1f} mm^2/s (7c21b69), {abs(ref['D'] - ref0['D']) / se:.1f} combined se",
     ]
     for sentence in expected:
         assert sentence in text, sentence

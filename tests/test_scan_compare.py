@@ -64,7 +64,8 @@ def test_differences_within_the_rounding_bound_are_agreement_and_beyond_it_are_n
 def test_the_docs_table_is_the_committed_comparison():
     """docs/benchmarks.md shows the table of docs/scan_compare/full_scan_compare.json, which
     compares the committed full scan with docs/figures/S3_full (recomputed here), where that
-    scan's time went, its speed-up over the db5ef1b scan and the kernel benchmark beside it."""
+    scan's time went, its speed-up over the db5ef1b and c98c783 scans and the kernel
+    benchmark beside it."""
     import json
 
     m = _module()
@@ -79,29 +80,34 @@ def test_the_docs_table_is_the_committed_comparison():
     scan = json.loads((root / saved["provenance"]["new"]["file"]).read_text())
     assert measured_table(scan["points"]) in text
     assert f"{scan['cpu_s']:.0f} s of CPU time" in flat
-    wall = json.loads((folder / "full_scan_c98c783_wall.json").read_text())
+    wall = json.loads((folder / "full_scan_7c21b69_wall.json").read_text())
     assert wall["scan"] == saved["provenance"]["new"]["file"]
     assert f"{wall['wall_s']:.0f} s wall" in flat
-    before = json.loads((folder / "full_scan_db5ef1b.json").read_text())["points"]
-    assert measured_speedup_table(before, scan["points"]) in text
-    kernel = json.loads((folder / "kernel_buffers_6c8e81b_c98c783.json").read_text())
+    assert f"{wall['wall_s']:.0f} s is {wall['wall_s'] / 600:.1f} times too long" in flat
+    for commit in ("db5ef1b", "c98c783"):
+        before = json.loads((folder / f"full_scan_{commit}.json").read_text())
+        assert measured_speedup_table(before["points"], scan["points"]) in text
+    previous = json.loads((folder / "full_scan_c98c783.json").read_text())
+    previous_wall = json.loads((folder / "full_scan_c98c783_wall.json").read_text())
+    assert f"{previous_wall['wall_s']:.0f} s wall" in flat
+    kernel = json.loads((folder / "kernel_buffers_c98c783_7c21b69.json").read_text())
     assert load_benchmark("kernel_buffers").doc_table(kernel) in text
-    # "largest where chattering hops are most of the events (50-70 Hz), smallest at 85-95 Hz"
-    ratio = {row["f"]: row["ratio"] for row in kernel["results"]}
-    assert min(r for f, r in ratio.items() if f <= 70.2) > max(
-        r for f, r in ratio.items() if f >= 85.2
-    )
+    # "the whole scan gained a little more (1.23) than the kernel at these sample frequencies"
+    gain = previous["cpu_s"] / scan["cpu_s"]
+    assert f"a little more ({gain:.2f}) than the kernel" in flat
+    assert gain > max(row["ratio"] for row in kernel["results"])
     old = m.load_old(root / "docs" / "figures" / "S3_full.npz")
     new = m.load_new(root / saved["provenance"]["new"]["file"])
     again = m.z_scores(old, new)
+    f = again["f"]
     for name in ("D", "E", "E_x"):
         assert {k: v for k, v in again[name].items() if k != "z"} == saved[name]
-        # the sentences under the table: the same trajectories below 57 Hz (and energies
-        # below 65 Hz), noise above 65 Hz
+        # the sentences under the table: below 57 Hz the energies agree to rounding and D
+        # within 1.1; the energies within 1 up to 65 Hz; noise above 65 Hz
         z = again[name]["z"]
-        locked = again["f"] < (57.0 if name == "D" else 65.0)
-        assert np.abs(z[again["f"] < 57.0]).max() < 1.0
-        assert np.abs(z[locked]).max() < 1.0
-        assert 0.8 < z[again["f"] > 65.0].std(ddof=1) < 1.2
-    # D already decorrelates between 57 and 65 Hz
-    assert np.abs(again["D"]["z"][(again["f"] > 57.0) & (again["f"] < 65.0)]).max() > 1.0
+        assert np.abs(z[f < 57.0]).max() < (1.1 if name == "D" else 1e-4)
+        if name != "D":
+            assert np.abs(z[f < 65.0]).max() < 1.0
+        assert 0.8 < z[f > 65.0].std(ddof=1) < 1.2
+    # D already scatters between 57 and 65 Hz
+    assert np.abs(again["D"]["z"][(f > 57.0) & (f < 65.0)]).max() > 1.0

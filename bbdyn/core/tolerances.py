@@ -143,8 +143,8 @@ RELEASE_WINDOW_PAD = 1e-9
 
 #: LLVM fast-math flags of every core kernel: only "contract", so that ``a * b + c`` may be
 #: one fused multiply-add, rounded once instead of twice.  Never less accurate; no
-#: reassociation, no assumptions about inf or nan; the same code in every thread (python
-#: benchmarks/kernel_buffers.py measured the ensemble 8 % faster).  Every kernel must carry
-#: the same flags (tests/test_architecture.py): numba may reuse a helper compiled for one
-#: caller in another, so mixed flags would make results depend on the order of compilation.
+#: reassociation, no assumptions about inf or nan; the same code in every thread.  Every
+#: kernel must carry the same flags (tests/test_architecture.py): numba may reuse a helper
+#: compiled for one caller in another, so mixed flags would make results depend on the
+#: order of compilation.
 FMA = {"contract"}
