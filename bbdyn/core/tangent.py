@@ -15,9 +15,16 @@ the accumulation point has ``g_eff > 0``, so it lies outside the release window
 and the stick never lasts zero time).  The state after the release therefore
 does not depend on the state before the stick: the tangent map of the whole
 stick is the zero matrix, a factor ``log 0 = -inf`` in the growth.  The kernels
-count such *collapses* instead of adding ``-inf``, and restart the frame at the
-release with the identity, so that the finite growth between collapses is kept
-as well (the *conditional* exponent).
+count such *collapses* instead of adding ``-inf``, and keep the finite growth
+between collapses as well (the *conditional* exponent): the frame restarts with
+the identity at the first impact after the release.  Not at the release itself:
+at ``theta_r`` the floor's acceleration is ``-g``, so a particle released later
+flies the same flight to first order (its position and velocity differ by
+``O(dtheta^2)``); the phase column of the release flight's Jacobian is 0, and the
+velocity column acts on a perturbation a release never has (it leaves at zero
+relative velocity).  Carried through it, the identity's first column would
+contribute ``log`` of a rounding error (about -32 per stick, whatever the
+dynamics) instead of the growth between sticks.
 """
 
 import math
@@ -27,7 +34,7 @@ from numba import njit
 from bbdyn.core.flat import flat_event
 from bbdyn.core.flat_jacobian import flat_map_jacobian_entries
 from bbdyn.core.plate import TWO_PI
-from bbdyn.core.status import IMPACT, OK, STICK, STUCK_FOREVER
+from bbdyn.core.status import IMPACT, OK, RELEASE, STICK, STUCK_FOREVER
 from bbdyn.core.tolerances import FMA
 
 
@@ -101,7 +108,8 @@ def flat_tangent_run(
     j00 = j01 = j10 = j11 = 0.0
     while j < n_w:
         collapse = kind == STICK
-        if not collapse:
+        released = kind == RELEASE  # the flight from a release depends on nothing before it
+        if not (collapse or released):
             _, _, j00, j01, j10, j11, status = flat_map_jacobian_entries(phase, vrel, kp)
             if status != OK:
                 break
@@ -119,6 +127,12 @@ def flat_tangent_run(
             # the state after the stick's release does not depend on the state before it
             out_collapses[j] += 1
             q00, q10, q01, q11 = 1.0, 0.0, 0.0, 1.0
+        elif released:
+            # nor, to first order, does the landing of the flight from the release (the
+            # release phase has g_eff = 0: a later release is the same flight, to O(dtheta^2),
+            # so the Jacobian's phase column is 0 and the velocity's stays 0): restart there
+            q00, q10, q01, q11 = 1.0, 0.0, 0.0, 1.0
+            out_impacts[j] += kind == IMPACT
         elif kind == IMPACT:
             q00, q10, q01, q11, l0, l1 = gram_schmidt_2(q00, q10, q01, q11, j00, j01, j10, j11)
             out_log[j, 0] += l0
