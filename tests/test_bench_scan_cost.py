@@ -122,3 +122,50 @@ def test_measured_speedup_table_compares_two_scans_band_by_band():
     assert rows[-1] == f"| all | {2 * grid.size} | {grid.size - 0.5:.0f} | 2.00 |"
     with pytest.raises(ValueError, match="same frequency grid"):
         sc.measured_speedup_table(before, after[1:])
+
+
+def test_predicted_vs_measured_table_lines_up_bands_and_ratios():
+    """Predictions of known rows beside grids of known cost (1 s per point, then 0.5 s)."""
+    grid = frequency_grid(49.8, 95.0, 0.2)
+    slow = [{"f": float(f), "cpu_s": 1.0} for f in grid]
+    fast = [{"f": float(f), "cpu_s": 0.5} for f in grid]
+    rows = [{"predicted_cpu_s": 10.0 * (i + 1), "error_cpu_s": 2.0} for i in range(6)]
+    half = [dict(r, predicted_cpu_s=r["predicted_cpu_s"] / 4) for r in rows]
+    lines = sc.predicted_vs_measured_table([rows, half], [slow, fast], ["a", "b"]).splitlines()
+    assert lines[0].startswith("| band (Hz) | predicted, a | measured, a | predicted, b |")
+    assert lines[2] == "| 49.8-53 | 10 +- 2 | 17 | 2 +- 2 | 8 | 4.00 | 2.00 |"  # 17 points
+    total = f"| all | 60 +- 2 | {grid.size} | 15 +- 2 | {grid.size / 2:.0f} | 4.00 | 2.00 |"
+    assert lines[-1] == total
+
+
+def test_the_docs_table_is_the_committed_prediction():
+    """docs/benchmarks.md shows the cost model's predictions for c98c783 and 7c21b69 beside
+    the full scans they predict, and its sentences hold: every band within its error, both
+    totals within 5 %, the predicted and measured speed-ups as stated."""
+    import json
+
+    from derivation_loader import ROOT
+
+    bench, scans = ROOT / "docs" / "bench", ROOT / "docs" / "scan_compare"
+    pred = [json.loads((bench / f"scan_cost_{c}.json").read_text())["meta"]["rows"]
+            for c in ("c98c783", "987965b")]  # fmt: skip
+    meas = [json.loads((scans / f"full_scan_{c}.json").read_text())["points"]
+            for c in ("c98c783", "7c21b69")]  # fmt: skip
+    text = (ROOT / "docs" / "benchmarks.md").read_text()
+    assert sc.predicted_vs_measured_table(pred, meas, ["c98c783", "7c21b69"]) in text
+    flat = " ".join(text.split())
+    band_ratio_p, band_ratio_m = [], []
+    for rows, points in zip(pred, meas, strict=True):
+        sums = sc._band_sums(points)
+        for r, s in zip(rows[:-1], sums[:-1], strict=True):
+            assert abs(r["predicted_cpu_s"] - s) <= r["error_cpu_s"]
+        assert abs(rows[-1]["predicted_cpu_s"] - sums[-1]) <= 0.05 * sums[-1]
+    for i in range(6):
+        band_ratio_p.append(pred[0][i]["predicted_cpu_s"] / pred[1][i]["predicted_cpu_s"])
+        band_ratio_m.append(sc._band_sums(meas[0])[i] / sc._band_sums(meas[1])[i])
+    assert (
+        f"predicted speed-up ({min(band_ratio_p[:5]):.2f}-{max(band_ratio_p[:5]):.2f} per band, "
+        f"{band_ratio_p[5]:.2f} in all)" in flat
+    )
+    assert f"measured one ({min(band_ratio_m[:5]):.2f}-{max(band_ratio_m[:5]):.2f}, " in flat
+    assert f"{band_ratio_m[5]:.2f})" in flat

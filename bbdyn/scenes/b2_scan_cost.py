@@ -37,7 +37,8 @@ import numpy as np
 from bbdyn.reference.timing import single_thread
 from bbdyn.results import Result, make_meta
 
-__all__ = ["BANDS", "FULL", "QUICK", "compute", "measured_table", "predict", "sample_frequencies",
+__all__ = ["BANDS", "FULL", "QUICK", "compute", "measured_table", "predict",
+           "predicted_vs_measured_table", "sample_frequencies",
            "table"]  # fmt: skip
 
 #: Cost bands of the scan (Hz, grid points included at both ends): different regimes.
@@ -228,6 +229,39 @@ def table(result: ScanCostResult) -> str:
     pairs = zip(result["f"], result["cost"], strict=True)
     lines.append("  ".join(f"{f:.1f}: {1e6 * c:.3g}" for f, c in pairs))
     return "\n".join(lines)
+
+
+def predicted_vs_measured_table(
+    predicted: list[list[dict]], measured: list[list[dict]], labels: list[str]
+) -> str:
+    """Markdown table: per band, each prediction (``meta["rows"]`` of a result, +- its
+    error) beside the measured CPU s of the scan it predicts (``points`` with ``f`` and
+    ``cpu_s``), one pair of columns per label, and the ratio of the first to the last of each.
+    """
+    sums = [_band_sums(points) for points in measured]
+    head = [f"predicted, {x} | measured, {x}" for x in labels]
+    lines = [
+        f"| band (Hz) | {' | '.join(head)} | predicted ratio | measured ratio |",
+        "|---|" + "---:|" * (2 * len(labels) + 2),
+    ]
+    names = [f"{lo:g}-{hi:g}" for lo, hi in BANDS] + ["all"]
+    for i, name in enumerate(names):
+        cells, pred, meas = [], [], []
+        for rows, band_sums in zip(predicted, sums, strict=True):
+            r = rows[i]
+            pred.append(r["predicted_cpu_s"])
+            meas.append(band_sums[i])
+            cells += [f"{r['predicted_cpu_s']:.0f} +- {r['error_cpu_s']:.0f}",
+                      f"{band_sums[i]:.0f}"]  # fmt: skip
+        ratios = f"{pred[0] / pred[-1]:.2f} | {meas[0] / meas[-1]:.2f}"
+        lines.append(f"| {name} | {' | '.join(cells)} | {ratios} |")
+    return "\n".join(lines)
+
+
+def _band_sums(points: list[dict]) -> list[float]:
+    """CPU s of the points of each band (ends included), then of all of them."""
+    f, cpu, masks = _band_masks(points, BANDS)
+    return [float(cpu[m].sum()) for m in masks] + [float(cpu.sum())]
 
 
 def _band_masks(points: list[dict], bands):
