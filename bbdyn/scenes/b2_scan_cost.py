@@ -47,7 +47,7 @@ BANDS = ((49.8, 53.0), (53.2, 57.4), (57.6, 65.0), (65.2, 80.0), (80.2, 95.0))
 F_STEP, FULL_N, FULL_T = 0.2, 1000, 200.0
 
 TITLE = "Cost model of the full S3-S5 scan: CPU time per particle-second against f"
-QUICK = {"samples": 14, "n": 4, "t": 50.0, "repeats": 2}
+QUICK = {"samples": 20, "n": 8, "t": FULL_T, "repeats": 2}
 FULL = {"samples": 40, "n": 16, "t": FULL_T, "repeats": 2}
 
 
