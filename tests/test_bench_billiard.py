@@ -197,6 +197,16 @@ def test_the_docs_numbers_are_those_of_the_committed_run():
         f"{fs[1]['E_y_diff_in_se']:.1f} se)",
         f"{100 * (fs[0]['E'] - ref['E']) / ref['E']:.1f} % of E",
     ]
+    # "above 8e6 at 58 Hz only"; the fixed-step D "within 3 se"
+    assert [p["f"] for p in prof if p["collisions_per_s"] > 8e6] == [58.0]
+    assert all(abs(r["D_diff_in_se"]) < 3 for r in fs)
+    # the steps per flight before and after, cited under the full scan's kernel table
+    steps0 = {p["f"]: p["steps_per_flight"] for p in before.meta["profile"]}
+    expected.append(
+        f"from {steps0[70.0]:.2f} to {by_f[70.0]['steps_per_flight']:.2f} at 70 Hz, from "
+        f"{steps0[85.2]:.2f} to {by_f[85.2]['steps_per_flight']:.2f} at 85.2 Hz and from "
+        f"{steps0[88.4]:.2f} to {by_f[88.4]['steps_per_flight']:.2f} at 88.4 Hz"
+    )
     # the previous run, cited: its one-flight and ensemble speeds and its exact D at 85.2 Hz
     rows0, ref0 = before.meta["rows"], before.meta["observables"][0]
     ens0 = next(r for r in rows0 if "ensemble" in r["setting"])

@@ -196,8 +196,13 @@ def test_end_to_end_at_85_2_hz_quick(run85, tmp_path):
     res = run85
     assert res["status"].tolist() == [0] * 40
     summary = res.summary()
-    # 40 particles over 3 s: D is positive within its error (the estimate itself is noisy)
-    assert summary["D_se"] > 0 and summary["D"] + 3 * summary["D_se"] > 0
+    # 40 particles over 3 s from t = 0 cannot pin D down (its error is larger than D); check
+    # instead that the summary's D is half the least-squares slope of these particles' MSD
+    # over the late half of the run
+    t, disp = res["sample_times"], res["displacement"]
+    late = t >= 0.5 * t[-1]
+    slope = np.polyfit(t[late], np.mean(disp[:, late] ** 2, axis=0), 1)[0]
+    assert summary["D"] == pytest.approx(slope / 2, rel=1e-9) and summary["D_se"] > 0
     assert 0 <= summary["stuck_fraction"] < 1
     assert summary["collisions_per_particle_per_s"] > 0
     assert np.allclose(res["E"], res["E_x"] + res["E_y"] + res["E_pot"], rtol=1e-14)

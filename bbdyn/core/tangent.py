@@ -23,8 +23,8 @@ flies the same flight to first order (its position and velocity differ by
 ``O(dtheta^2)``); the phase column of the release flight's Jacobian is 0, and the
 velocity column acts on a perturbation a release never has (it leaves at zero
 relative velocity).  Carried through it, the identity's first column would
-contribute ``log`` of a rounding error (about -32 per stick, whatever the
-dynamics) instead of the growth between sticks.
+contribute ``log`` of a rounding error per stick, whatever the dynamics, instead
+of the growth between sticks.
 """
 
 import math
@@ -108,7 +108,7 @@ def flat_tangent_run(
     j00 = j01 = j10 = j11 = 0.0
     while j < n_w:
         collapse = kind == STICK
-        released = kind == RELEASE  # the flight from a release depends on nothing before it
+        released = kind == RELEASE
         if not (collapse or released):
             _, _, j00, j01, j10, j11, status = flat_map_jacobian_entries(phase, vrel, kp)
             if status != OK:
@@ -127,16 +127,15 @@ def flat_tangent_run(
             # the state after the stick's release does not depend on the state before it
             out_collapses[j] += 1
             q00, q10, q01, q11 = 1.0, 0.0, 0.0, 1.0
-        elif released:
-            # nor, to first order, does the landing of the flight from the release (the
-            # release phase has g_eff = 0: a later release is the same flight, to O(dtheta^2),
-            # so the Jacobian's phase column is 0 and the velocity's stays 0): restart there
-            q00, q10, q01, q11 = 1.0, 0.0, 0.0, 1.0
-            out_impacts[j] += kind == IMPACT
         elif kind == IMPACT:
-            q00, q10, q01, q11, l0, l1 = gram_schmidt_2(q00, q10, q01, q11, j00, j01, j10, j11)
-            out_log[j, 0] += l0
-            out_log[j, 1] += l1
+            if released:  # nor does this landing, to first order (module docstring): restart
+                q00, q10, q01, q11 = 1.0, 0.0, 0.0, 1.0
+            else:
+                q00, q10, q01, q11, l0, l1 = gram_schmidt_2(
+                    q00, q10, q01, q11, j00, j01, j10, j11
+                )
+                out_log[j, 0] += l0
+                out_log[j, 1] += l1
             out_impacts[j] += 1
         out_time[j] = t
         if t > t_ends[j]:

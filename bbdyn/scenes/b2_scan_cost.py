@@ -258,9 +258,9 @@ def predicted_vs_measured_table(
     return "\n".join(lines)
 
 
-def _band_sums(points: list[dict]) -> list[float]:
+def _band_sums(points: list[dict], bands=BANDS) -> list[float]:
     """CPU s of the points of each band (ends included), then of all of them."""
-    f, cpu, masks = _band_masks(points, BANDS)
+    _, cpu, masks = _band_masks(points, bands)
     return [float(cpu[m].sum()) for m in masks] + [float(cpu.sum())]
 
 
@@ -290,13 +290,12 @@ def measured_table(points: list[dict], bands=BANDS) -> str:
 def measured_speedup_table(before: list[dict], after: list[dict], bands=BANDS) -> str:
     """Two real scans of the same grid compared per band of ``bands``: the summed ``cpu_s``
     of each (points of ``bbdyn scan --json``) and their ratio, before / after (markdown)."""
-    (f_old, old, m_old), (f_new, new, m_new) = _band_masks(before, bands), _band_masks(after, bands)
-    if not np.array_equal(np.sort(f_old), np.sort(f_new)):
+    f_old, f_new = (np.sort([p["f"] for p in scan]) for scan in (before, after))
+    if not np.array_equal(f_old, f_new):
         raise ValueError("the two scans must have the same frequency grid")
     lines = ["| band (Hz) | CPU s before | CPU s after | before / after |", "|---|---:|---:|---:|"]
-    rows = [(f"{lo:g}-{hi:g}", old[a].sum(), new[b].sum())
-            for (lo, hi), a, b in zip(bands, m_old, m_new, strict=True)]  # fmt: skip
-    for name, a, b in rows + [("all", old.sum(), new.sum())]:
+    names = [f"{lo:g}-{hi:g}" for lo, hi in bands] + ["all"]
+    for name, a, b in zip(names, _band_sums(before, bands), _band_sums(after, bands), strict=True):
         lines.append(f"| {name} | {a:.0f} | {b:.0f} | {a / b:.2f} |")
     return "\n".join(lines)
 
