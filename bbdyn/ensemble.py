@@ -371,7 +371,7 @@ def ensemble(
     record_window: tuple[float, float] | None = None,
     record_capacity: int = 4096,
     threads: int | None = None,
-    fast_forward: bool = True,
+    fast_forward: str | bool = "converged",
     on_failure: str = "keep",
     max_events: float = MAX_EVENTS,
     max_bytes: float = MAX_BYTES,
@@ -412,10 +412,15 @@ def ensemble(
     threads : int, optional
         Number of numba threads (default: numba's current setting).  Results do
         not depend on it.
-    fast_forward : bool
-        Skip whole stick-release cycles once a release repeats bit for bit
-        (``core.ensemble.fast_forward``): the same events; counts, jumps,
-        displacements exact, integrals to rounding.  Not for recorded particles.
+    fast_forward : {"converged", "bitwise", "off"} or bool
+        Skip whole stick-release cycles (``core.ensemble.fast_forward``; not for recorded
+        particles).  ``"bitwise"``: once a release repeats bit for bit; the same events,
+        counts, jumps and displacements, integrals to rounding.  ``"converged"`` (default,
+        also ``True``): besides, once a cycle has converged to within ``FF_DRIFT_TOL`` =
+        1e-12 mm (``core.ensemble.converged_cycle``: a proven bound on the drift ahead from
+        the cycle's multiplier, integrals of the last two cycles equal to
+        ``FF_ENERGY_REL_TOL`` = 1e-12): the same counts, positions within 1e-12 mm,
+        integrals within 1e-12 relative.  ``"off"`` (also ``False``): event by event.
     on_failure : {"keep", "raise"}
         What to do when the kernel fails for some particles (``status`` a failure, e.g.
         a non-finite state): ``"keep"`` (default) warns and keeps the others, which are
@@ -480,13 +485,16 @@ def ensemble(
     ):
         if name in observables:
             flags |= flag
-    if fast_forward:
+    mode = fast_forward_mode(fast_forward)
+    if mode != "off":
         flags |= core.OBS_FAST_FORWARD
+    if mode == "converged":
+        flags |= core.OBS_FF_CONVERGED
     obs = core.Observables(flags, *periods_phase(np.array(rec_t), params.f), halves[1])
     cap = int(jump_capacity) if "jumps" in observables else 0
     n_rec = min(int(record_particles), n) if "record" in observables else 0
     rec_cap = int(record_capacity) if n_rec else 0
-    lags = core.FF_LAGS if fast_forward else 0
+    lags = core.FF_LAGS if mode != "off" else 0
     out, estimate = allocate(
         {
             "displacement": ((n, s_periods.size), float),
@@ -558,12 +566,25 @@ def ensemble(
         halves_periods=halves,
         observables=list(observables),
         threads=used_threads,
-        fast_forward=bool(fast_forward),
+        fast_forward=mode,
         box=None if initial is not None else vars(box or reference_box(params)),
         estimate=estimate,
         **failed,
     )
     return EnsembleResult(arrays, meta)
+
+
+FAST_FORWARD_MODES = ("converged", "bitwise", "off")
+
+
+def fast_forward_mode(fast_forward) -> str:
+    """The fast-forward mode of ``ensemble``: one of FAST_FORWARD_MODES (True is
+    ``"converged"``, False ``"off"``); ValueError otherwise."""
+    if fast_forward is True or fast_forward is False:
+        return "converged" if fast_forward else "off"
+    if fast_forward not in FAST_FORWARD_MODES:
+        raise ValueError(f"fast_forward must be one of {FAST_FORWARD_MODES}, got {fast_forward!r}")
+    return fast_forward
 
 
 def _energy_halves(acc: np.ndarray, cuts: list, f: float, status: np.ndarray) -> dict:

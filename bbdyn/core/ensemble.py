@@ -44,6 +44,7 @@ import numpy as np
 from numba import njit, prange
 
 from bbdyn.core.billiard import billiard_event_trig
+from bbdyn.core.cycle import release_map
 from bbdyn.core.features import Collision, block_of, feature_collision, feature_finish
 from bbdyn.core.floor import arc_root, floor_height_rel, normal_velocity, xi_from_arc_length
 from bbdyn.core.observables import (
@@ -54,9 +55,9 @@ from bbdyn.core.observables import (
     time_between,
     trap_of,
 )
-from bbdyn.core.plate import plate_height_sin, plate_velocity_cos, sin_cos
+from bbdyn.core.plate import plate_height_sin, plate_velocity_cos, release_window, sin_cos
 from bbdyn.core.status import IMPACT, OK, RELEASE, STICK, STUCK_FOREVER
-from bbdyn.core.tolerances import FMA
+from bbdyn.core.tolerances import FF_DRIFT_TOL, FF_ENERGY_REL_TOL, FMA
 
 #: Bit flags selecting the observables an ensemble computes.
 OBS_DISPLACEMENT = 1
@@ -66,8 +67,15 @@ OBS_RECORD = 8
 #: Fast-forward of exactly periodic stick-release cycles (``fast_forward``); ignored
 #: for recorded particles (and never made with features).
 OBS_FAST_FORWARD = 32
-#: Releases remembered to detect a cycle: lags 1 .. FF_LAGS.
-FF_LAGS = 8
+#: With OBS_FAST_FORWARD: skip also cycles converged to within FF_DRIFT_TOL that do not
+#: repeat bit for bit (``converged_cycle``).
+OBS_FF_CONVERGED = 64
+#: Releases remembered to detect a cycle: lags 1 .. FF_LAGS (converged cycles: lags up to
+#: FF_LAGS / 2, two cycles are compared).
+FF_LAGS = 12
+#: Distance (mm) within which a remembered multiplier decides that a converged-cycle bound
+#: is hopeless (``converged_cycle``; an economy only: no bound relies on it).
+FF_LAM_NEAR = 1e-9
 
 #: Columns of the per-particle integrals ``acc``: int E_x, int E_y, int g y, stuck time
 #: (kg mm^2/s and s), all over the energy window.
@@ -86,10 +94,12 @@ RUNNING = -1
 #: ``particle_loop`` keeps between events): the last event ``periods, phase, tile, xi, vx,
 #: vyrel, kind``, the start ``tile0, xi0``, the next sample index, the trap, the last
 #: departure ``(periods, phase)``, the feature ring count and tiny-hop run, the releases
-#: remembered.
+#: remembered, and the last multiplier of ``converged_cycle``: its lag, release point and
+#: ``abs(lam)``.
 C_TILE0, C_XI0, C_K, C_TRAP, C_DEP_P, C_DEP_PH = 7, 8, 9, 10, 11, 12
 C_NRING, C_RUN, C_NREL = 13, 14, 15
-CARRY_WIDTH = 16
+C_LAM_P, C_LAM_XI, C_LAM = 16, 17, 18
+CARRY_WIDTH = 19
 
 
 class Event(NamedTuple):
@@ -307,9 +317,139 @@ def integrate_to_split(acc, ev, p0, split, kp, energy):
         kind, trig = nxt[6], (nxt[8], nxt[9])  # hi is that event's time unless the loop ends
 
 
+@njit(cache=True, fastmath=FMA, inline="always")
+def release_zone(periods, phase, window):
+    """Zone of a release: 0, 1, 2 before, in, after the window (a skip stays in one)."""
+    p1 = window.p0 + window.nb * window.L
+    if is_before(periods, phase, window.p0, 0.0):
+        return 0.0
+    return 1.0 if is_before(periods, phase, p1, 0.0) else 2.0
+
+
 @njit(cache=True, fastmath=FMA)
-def fast_forward(carry, i, n_rel, ev, k, bound, window, split, kp, energy, out):
-    """Skip whole stick-release cycles of particle ``i`` once a release state repeats bitwise.
+def converged_cycle(carry, i, n_rel, ev, acc, counts, kp):
+    """Lag p of a cycle that has converged to within ``FF_DRIFT_TOL``; 0 if none.
+
+    For ``fast_forward`` in its converged mode, where a cycle converges onto a fixed point
+    but never repeats bit for bit (its rounding keeps the releases a few ulp apart).
+    Accepted at a release at ``theta_r`` (``core.cycle``) with lag ``p`` (``2 p <= FF_LAGS``)
+    only if:
+
+    * the last two p-cycles are the same sequence: the same periods, tile shift and zone,
+      and the same change of every count (events, collisions, sticks, jumps);
+    * their integrals agree, ``|I_last - I_before| <= FF_ENERGY_REL_TOL |I_last|`` for
+      each of the four (``ACC_*``): the integrals vary over the distance between their
+      releases by less than that;
+    * the release map F (``core.cycle``) contracts, ``|lam| < 1``, and the drift still ahead
+      is bounded: with ``x_n = F(x_{n-p})`` and the fixed point ``x* = F(x*)``, ``x_n - x* =
+      lam (x_{n-p} - x*)`` (mean value theorem), so ``|x_n - x*| <= |lam| |x_n - x_{n-p}| /
+      (1 - |lam|) <= FF_DRIFT_TOL``.
+
+    ``lam`` comes from ``release_map`` (one more cycle from this release with the tangent
+    dynamics, which must make the same events); it is remembered with the lag and the release
+    point in ``carry.state`` (``C_LAM*``) and used again while one of the cycle's last p
+    releases stays within ``FF_DRIFT_TOL`` of that point (the multiplier of a cycle is the
+    same from each of its releases; F' changes by ``F''`` times that distance).  Within
+    ``FF_LAM_NEAR`` of it, a remembered ``lam`` whose bound fails by more than a factor 2
+    stops the search without a new run (a slowly converging cycle would otherwise run one
+    at every release); the bound itself always uses a ``lam`` from within ``FF_DRIFT_TOL``.
+    """
+    rel, rel_acc, rel_cnt, cs = carry.rel[i], carry.rel_acc[i], carry.rel_cnt[i], carry.state[i]
+    for p in range(1, min(n_rel, FF_LAGS) // 2 + 1):
+        s1 = (n_rel - p) % FF_LAGS
+        s2 = (n_rel - 2 * p) % FF_LAGS
+        step = abs(ev.xi - rel[s1, 1])
+        if step > FF_DRIFT_TOL or abs(rel[s1, 1] - rel[s2, 1]) > FF_DRIFT_TOL:
+            continue
+        r1, r2 = rel[s1], rel[s2]
+        if r1[0] != ev.phase or r2[0] != ev.phase:
+            continue
+        dP = ev.periods - r1[2]
+        if r1[2] - r2[2] != dP or ev.tile - r1[3] != r1[3] - r2[3] or r1[4] != r2[4]:
+            continue
+        if ev.phase != release_window(kp.gamma)[0]:
+            return 0
+        same = True
+        for c in range(CNT_WIDTH):
+            same = same and counts[c] - rel_cnt[s1, c] == rel_cnt[s1, c] - rel_cnt[s2, c]
+        for c in range(4):
+            last = acc[0, c] - rel_acc[s1, c]
+            before = rel_acc[s1, c] - rel_acc[s2, c]
+            same = same and abs(last - before) <= FF_ENERGY_REL_TOL * abs(last)
+        if not same:
+            continue
+        # the shortest lag that passes decides (its multiples are the same cycle repeated);
+        # the multiplier is the cycle's, whichever of its p releases it was computed from
+        near = abs(ev.xi - cs[C_LAM_XI])
+        for j in range(1, p):
+            near = min(near, abs(rel[(n_rel - j) % FF_LAGS, 1] - cs[C_LAM_XI]))
+        if cs[C_LAM_P] == p and near <= FF_LAM_NEAR:
+            lam = cs[C_LAM]  # hopeless with the multiplier of a release that near: no new run
+            if not (lam < 1.0 and lam * step <= 2.0 * FF_DRIFT_TOL * (1.0 - lam)):
+                return 0
+        if not (cs[C_LAM_P] == p and near <= FF_DRIFT_TOL):
+            n_cycle = counts[CNT_EVENTS] - rel_cnt[s1, CNT_EVENTS]
+            lam, P, ph, tile, _, events, ok = release_map(
+                ev.periods, ev.phase, ev.tile, ev.xi, p, n_cycle, kp
+            )
+            same_cycle = events == n_cycle and P - ev.periods == dP and ph == ev.phase
+            same_cycle = same_cycle and tile - ev.tile == ev.tile - r1[3]
+            cs[C_LAM_P], cs[C_LAM_XI] = p, ev.xi
+            cs[C_LAM] = abs(lam) if ok and same_cycle else math.inf
+        lam = cs[C_LAM]
+        return p if lam < 1.0 and lam * step <= FF_DRIFT_TOL * (1.0 - lam) else 0
+    return 0
+
+
+@njit(cache=True, fastmath=FMA)
+def skip_cycles(carry, i, back, ev, k, bound, window, split, kp, energy, out):
+    """Skip as many copies of the cycle since release ``back`` (ring index) as fit before
+    ``bound`` (see ``fast_forward``); returns ``(K, dP, dl)``, ``K = 0`` if none fits."""
+    rel_acc, rel_cnt = carry.rel_acc[i], carry.rel_cnt[i]
+    acc, counts = out.blocks[i], out.counts[i]
+    periods, phase, tile, xi = ev.periods, ev.phase, ev.tile, ev.xi
+    zone = release_zone(periods, phase, window)
+    s = back % FF_LAGS
+    r = carry.rel[i, s]
+    if r[4] != zone or r[5] != k or rel_cnt[s, CNT_JUMPS] != counts[CNT_JUMPS]:
+        return 0, 0.0, 0.0
+    dP = periods - r[2]
+    dl = tile - r[3]
+    p0 = window.p0
+    p1 = p0 + window.nb * window.L
+    nxt_zone = p0 if zone == 0.0 else (p1 if zone == 1.0 else math.inf)
+    b_p, b_ph = bound
+    if is_before(nxt_zone, 0.0, b_p, b_ph):
+        b_p, b_ph = nxt_zone, 0.0
+    K = int(min((b_p - periods) // dP, 2.0**52 / dP))
+    while K > 0 and not is_before(periods + K * dP, phase, b_p, b_ph):
+        K -= 1
+    if K < 1:
+        return 0, 0.0, 0.0
+    if is_before(periods, phase, split, 0.0):
+        # cycles ending before the split, and does the next skipped one pass it?
+        K_split = int(min(K, (split - periods) // dP))
+        while K_split > 0 and not is_before(periods + K_split * dP, phase, split, 0.0):
+            K_split -= 1
+        if K_split < K:
+            for c in range(4):
+                acc[1, c] = acc[0, c] + K_split * (acc[0, c] - rel_acc[s, c])
+            release = Event(
+                periods + K_split * dP, phase, tile + K_split * dl, xi, ev.vx, ev.vyrel, ev.kind
+            )
+            integrate_to_split(acc, release, p0, split, kp, energy)
+    for c in range(4):
+        acc[0, c] += K * (acc[0, c] - rel_acc[s, c])
+    n_cycle = counts[CNT_EVENTS] - rel_cnt[s, CNT_EVENTS]
+    for c in range(CNT_WIDTH):
+        counts[c] += K * (counts[c] - rel_cnt[s, c])  # CNT_SKIPPED: no skip in the cycle
+    counts[CNT_SKIPPED] += K * n_cycle
+    return K, dP, dl
+
+
+@njit(cache=True, fastmath=FMA, inline="always")
+def fast_forward(carry, i, n_rel, ev, k, bound, window, split, kp, energy, converged, out):
+    """Skip whole stick-release cycles of particle ``i`` once its releases repeat.
 
     Exactness: a RELEASE leaves at ``phase = theta_r`` with ``vx = vyrel = 0`` relative to
     the floor, and ``billiard_event`` uses ``periods`` and ``tile`` only by adding whole
@@ -317,7 +457,10 @@ def fast_forward(carry, i, n_rel, ev, k, bound, window, split, kp, energy, out):
     ``(phase, xi, vx, vyrel)``, translated in periods and tiles.  If this release equals,
     bit for bit, the one ``p`` releases back (``dP`` periods and ``dl`` tiles earlier),
     every later cycle repeats the last one exactly, shifted by ``(dP, dl)`` (the release
-    velocities are always 0, so ``(phase, xi)`` is compared).  Its
+    velocities are always 0, so ``(phase, xi)`` is compared).  With ``converged`` a cycle
+    that has converged onto a fixed point within ``FF_DRIFT_TOL`` (``converged_cycle``, a
+    proven bound on the drift ahead) is skipped the same way: the skipped releases are then
+    this one's, within that bound of the event-by-event run's.  Its
     contributions are the changes of the accumulators over the last cycle, added ``K``
     times: counts exactly; integrals to rounding (a product instead of a running sum, see
     ``tolerances.SUM_ROUND_PER_TERM``).  Only cycles inside one zone are skipped: the last
@@ -351,6 +494,8 @@ def fast_forward(carry, i, n_rel, ev, k, bound, window, split, kp, energy, out):
     kp : KernelParams
     energy : bool
         Whether the energy integrals are computed (``OBS_ENERGY``).
+    converged : bool
+        Also skip converged cycles (``OBS_FF_CONVERGED``), not only bitwise repeats.
     out : EnsembleOut
         Row ``i`` of ``blocks`` and ``counts`` is advanced by the skipped cycles.
 
@@ -362,50 +507,23 @@ def fast_forward(carry, i, n_rel, ev, k, bound, window, split, kp, energy, out):
     rel, rel_acc, rel_cnt = carry.rel[i], carry.rel_acc[i], carry.rel_cnt[i]
     acc, counts = out.blocks[i], out.counts[i]
     periods, phase, tile, xi = ev.periods, ev.phase, ev.tile, ev.xi
-    p0 = window.p0
-    p1 = p0 + window.nb * window.L
-    zone = (
-        0.0
-        if is_before(periods, phase, p0, 0.0)
-        else (1.0 if is_before(periods, phase, p1, 0.0) else 2.0)
-    )
-    for lag in range(1, min(n_rel, FF_LAGS) + 1):
-        r = rel[(n_rel - lag) % FF_LAGS]
-        if r[0] != phase or r[1] != xi:
-            continue
-        s = (n_rel - lag) % FF_LAGS
-        if r[4] != zone or r[5] != k or rel_cnt[s, CNT_JUMPS] != counts[CNT_JUMPS]:
+    zone = release_zone(periods, phase, window)
+    lag = 0
+    for p in range(1, min(n_rel, FF_LAGS) + 1):
+        s = (n_rel - p) % FF_LAGS
+        if rel[s, 1] == xi and rel[s, 0] == phase:
+            lag = p
             break
-        dP = periods - r[2]
-        dl = tile - r[3]
-        nxt_zone = p0 if zone == 0.0 else (p1 if zone == 1.0 else math.inf)
-        b_p, b_ph = bound
-        if is_before(nxt_zone, 0.0, b_p, b_ph):
-            b_p, b_ph = nxt_zone, 0.0
-        K = int(min((b_p - periods) // dP, 2.0**52 / dP))
-        while K > 0 and not is_before(periods + K * dP, phase, b_p, b_ph):
-            K -= 1
-        if K < 1:
-            break
-        if is_before(periods, phase, split, 0.0):
-            # cycles ending before the split, and does the next skipped one pass it?
-            K_split = int(min(K, (split - periods) // dP))
-            while K_split > 0 and not is_before(periods + K_split * dP, phase, split, 0.0):
-                K_split -= 1
-            if K_split < K:
-                for c in range(4):
-                    acc[1, c] = acc[0, c] + K_split * (acc[0, c] - rel_acc[s, c])
-                release = Event(
-                    periods + K_split * dP, phase, tile + K_split * dl, xi, ev.vx, ev.vyrel, ev.kind
-                )
-                integrate_to_split(acc, release, p0, split, kp, energy)
-        for c in range(4):
-            acc[0, c] += K * (acc[0, c] - rel_acc[s, c])
-        n_cycle = counts[CNT_EVENTS] - rel_cnt[s, CNT_EVENTS]
-        for c in range(CNT_WIDTH):
-            counts[c] += K * (counts[c] - rel_cnt[s, c])  # CNT_SKIPPED: no skip in the cycle
-        counts[CNT_SKIPPED] += K * n_cycle
-        return K, dP, dl, 0
+    if lag == 0 and converged and n_rel >= 2:
+        near = abs(rel[(n_rel - 1) % FF_LAGS, 1] - xi)
+        for p in range(2, min(n_rel, FF_LAGS) // 2 + 1):
+            near = min(near, abs(rel[(n_rel - p) % FF_LAGS, 1] - xi))
+        if near <= FF_DRIFT_TOL:  # a candidate: the full test
+            lag = converged_cycle(carry, i, n_rel, ev, acc, counts, kp)
+    if lag > 0:
+        K, dP, dl = skip_cycles(carry, i, n_rel - lag, ev, k, bound, window, split, kp, energy, out)
+        if K > 0:
+            return K, dP, dl, 0
     s = n_rel % FF_LAGS
     rel[s, 0], rel[s, 1], rel[s, 2], rel[s, 3] = phase, xi, periods, tile
     rel[s, 4], rel[s, 5] = zone, k
@@ -431,6 +549,7 @@ def start_particles(states, carry_state):
         carry_state[i, C_NRING] = 0.0
         carry_state[i, C_RUN] = 0.0
         carry_state[i, C_NREL] = 0.0
+        carry_state[i, C_LAM_P] = 0.0
 
 
 @njit(cache=True, fastmath=FMA)
@@ -489,6 +608,7 @@ def particle_loop(carry, i, budget, kp, times, out, obs, th):
     energy = (flags & OBS_ENERGY) != 0
     do_jumps = (flags & OBS_JUMPS) != 0
     do_ff = (flags & OBS_FAST_FORWARD) != 0 and not do_record
+    converged = (flags & OBS_FF_CONVERGED) != 0
     end_p, end_ph = times.end_periods, times.end_phase
     window = Window(times.p0, times.L, times.nb)
     p0, L, nb = window
@@ -550,7 +670,7 @@ def particle_loop(carry, i, budget, kp, times, out, obs, th):
                     bound = (sample_periods[k], sample_phase[k])
                 K, dP, dl, n_rel = fast_forward(
                     carry, i, n_rel, Event(periods, phase, tile, xi, vx, vyrel, kind), k, bound,
-                    window, split, kp, energy, out,
+                    window, split, kp, energy, converged, out,
                 )  # fmt: skip
                 periods += K * dP
                 tile += K * dl

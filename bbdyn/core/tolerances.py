@@ -123,6 +123,16 @@ DOT_ROUND_PER_TERM = EPS
 #: roundings of that cycle's additions), so the two ways differ by at most twice this.
 SUM_ROUND_PER_TERM = EPS
 
+#: Converged cycles (``converged_cycle``): a cycle whose releases stay within this distance
+#: (mm) of each other and whose proven drift ahead, ``|F(x) - x| / (1 - |lam|)`` with the
+#: release map's multiplier ``lam`` (``core.cycle``), is below it too is skipped although it
+#: never repeats bit for bit.  1e-12 mm is 1e-12 of a tile: no observable resolves it.
+FF_DRIFT_TOL = 1e-12
+
+#: ... and whose last two cycles' integrals (E_x, E_y, g y, stuck time) agree to this
+#: relative accuracy: the skipped cycles' integrals are the last one's to that accuracy.
+FF_ENERGY_REL_TOL = 1e-12
+
 #: ``tangent_departure`` (core/billiard.py) certifies a clear start of a flight that leaves
 #: tangentially with the lower bound ``G(tau) >= G''(0) tau^2 / 2 - J tau^3 / 6``, positive
 #: for ``J tau < 3 G''(0)``.  It accepts ``J tau < DEPARTURE_MARGIN G''(0)`` (half of that
