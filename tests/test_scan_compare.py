@@ -111,3 +111,33 @@ def test_the_docs_table_is_the_committed_comparison():
         assert 0.8 < z[f > 65.0].std(ddof=1) < 1.2
     # D already scatters between 57 and 65 Hz
     assert np.abs(again["D"]["z"][(f > 57.0) & (f < 65.0)]).max() > 1.0
+
+
+def test_the_scan_with_converged_cycles_fast_forwarded():
+    """docs/benchmarks.md on the full scan at 323a012 (converged cycles fast-forwarded): its
+    wall and CPU time, where the time went, the speed-up over 7c21b69 band by band, and how
+    it differs from that scan (the same kernel and seeds) point by point."""
+    import json
+
+    from bbdyn.scenes.b2_scan_cost import agreement_sentence, measured_speedup_table, measured_table
+
+    folder = ROOT / "docs" / "scan_compare"
+    flat = " ".join((ROOT / "docs" / "benchmarks.md").read_text().split())
+    scan = json.loads((folder / "full_scan_323a012.json").read_text())
+    wall = json.loads((folder / "full_scan_323a012_wall.json").read_text())
+    before = json.loads((folder / "full_scan_7c21b69.json").read_text())
+    assert wall["scan"] == "docs/scan_compare/full_scan_323a012.json"
+    assert " ".join(measured_table(scan["points"]).split()) in flat
+    assert " ".join(measured_speedup_table(before["points"], scan["points"]).split()) in flat
+    assert f"{wall['wall_s']:.0f} s wall and {scan['cpu_s']:.0f} s of CPU time" in flat
+    assert f"{wall['wall_s']:.0f} s is {wall['wall_s'] / 600:.2f} times the goal" in flat
+    assert agreement_sentence(before["points"], scan["points"]) in flat
+    # the largest saving, point by point
+    old = {p["f"]: p["cpu_s"] for p in before["points"]}
+    new = {p["f"]: p["cpu_s"] for p in scan["points"]}
+    f = max(old, key=lambda k: old[k] - new[k])
+    assert f == max(old, key=old.get)  # the costliest point before
+    assert f"{f:g} Hz, the costliest point of the 7c21b69 scan, went from {old[f]:.1f} s to" in flat
+    assert f"to {new[f]:.1f} s" in flat
+    assert f"The route is worth about {100 * (1 - scan['cpu_s'] / before['cpu_s']):.0f} %" in flat
+    assert f"({wall['wall_s']:.0f} s now, {wall['wall_s'] / 600:.2f} times too long)" in flat

@@ -37,7 +37,7 @@ import numpy as np
 from bbdyn.reference.timing import single_thread
 from bbdyn.results import Result, make_meta
 
-__all__ = ["BANDS", "FULL", "QUICK", "compute", "measured_table", "predict",
+__all__ = ["BANDS", "FULL", "QUICK", "agreement_sentence", "compute", "measured_table", "predict",
            "predicted_vs_measured_table", "sample_frequencies",
            "table"]  # fmt: skip
 
@@ -298,6 +298,27 @@ def measured_speedup_table(before: list[dict], after: list[dict], bands=BANDS) -
     for name, a, b in zip(names, _band_sums(before, bands), _band_sums(after, bands), strict=True):
         lines.append(f"| {name} | {a:.0f} | {b:.0f} | {a / b:.2f} |")
     return "\n".join(lines)
+
+
+def agreement_sentence(before: list[dict], after: list[dict]) -> str:
+    """How two real scans of the same grid and seeds differ, point by point (a sentence):
+    the points whose D, E and E_x are all equal, and the largest differences, of D in units of
+    its standard error and of E and E_x relative to their value."""
+    old = {p["f"]: p for p in before}
+    pairs = [(old[p["f"]], p) for p in after]
+    if len(pairs) != len(before):
+        raise ValueError("the two scans must have the same frequency grid")
+    same = sum(all(a[k] == b[k] for k in ("D", "E", "E_x")) for a, b in pairs)
+
+    def worst(key, scale):
+        diffs = [abs(a[key] - b[key]) for a, b in pairs]
+        return max(d / scale(a, b) if d else 0.0 for d, (a, b) in zip(diffs, pairs, strict=True))
+
+    d_se = worst("D", lambda a, b: max(a["D_se"], b["D_se"]))
+    rel = {k: worst(k, lambda a, b, k=k: max(abs(a[k]), abs(b[k]))) for k in ("E", "E_x")}
+    return (f"{same} of {len(pairs)} points have the same D, E and E_x; elsewhere D differs by "
+            f"at most {d_se:.1g} of its standard error, E by {rel['E']:.1g} and E_x by "
+            f"{rel['E_x']:.1g} of their values")  # fmt: skip
 
 
 def draw(result: ScanCostResult):
