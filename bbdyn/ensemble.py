@@ -36,6 +36,7 @@ import numpy as np
 from bbdyn.core.status import (
     BAD_STATE,
     FAILURES,
+    FAST_FORWARD_MODES,
     NON_FINITE,
     OK,
     ROOT_NOT_CONVERGED,
@@ -572,9 +573,6 @@ def ensemble(
         **failed,
     )
     return EnsembleResult(arrays, meta)
-
-
-FAST_FORWARD_MODES = ("converged", "bitwise", "off")
 
 
 def fast_forward_mode(fast_forward) -> str:

@@ -192,3 +192,24 @@ def test_the_numbers_in_the_docs():
     rows = _release_points(50.0, 6)
     creep = np.abs(np.diff(rows[:, 0])) / np.diff(rows[:, 2])
     assert np.all((creep > 1e-7) & (creep < 1e-5))
+
+
+def test_simulate_takes_the_mode(capsys):
+    # bbdyn simulate --fast-forward: the mode reaches the run and its JSON; at 70.2 Hz the
+    # converged mode and the event-by-event run give the same energies to FF_ENERGY_REL_TOL
+    import json
+
+    from bbdyn import cli
+
+    out = {}
+    for mode in ("converged", "off"):
+        argv = ["simulate", "--f", "70.2", "--n", "4", "--t", "30", "--threads", "1"]
+        assert cli.main([*argv, "--fast-forward", mode, "--json"]) == 0
+        out[mode] = json.loads(capsys.readouterr().out)
+        assert out[mode]["fast_forward"] == mode
+    # events of a particle: at most those of all, and the window (its collisions) is 4/5 of
+    # the run; every event is a collision or the release after one
+    events = 2 * out["off"]["collisions"] * 5 / 4
+    rel = FF_ENERGY_REL_TOL + 2 * events * SUM_ROUND_PER_TERM
+    for name in ("E", "E_x", "E_y"):
+        assert abs(out["converged"][name] - out["off"][name]) <= rel * out["off"][name]

@@ -1,4 +1,5 @@
-"""`bbdyn simulate --f F [--A --alpha --beta --R --d] [--n N --t T --seed S] [--json]`: one run.
+"""`bbdyn simulate --f F [--A --alpha --beta --R --d] [--n N --t T --seed S] [--fast-forward M]
+[--json]`: one run.
 
 Prints the Einstein D with its standard error (late-window MSD slope), the
 period-averaged energies, the stuck fraction and the collision rate of the
@@ -6,7 +7,7 @@ reference ensemble (docs/model.md, section 3), with the parameters, seed, versio
 and wall time.  Progress is shown on stderr when it is a terminal (not with --json).
 
 JSON keys: ``version``, ``params`` (f Hz, A mm, g mm/s^2, alpha, beta, R mm, d mm),
-``gamma``, ``seed``, ``n``, ``t``, ``transient`` (s), ``threads``; ``n_ok``,
+``gamma``, ``seed``, ``n``, ``t``, ``transient`` (s), ``threads``, ``fast_forward``; ``n_ok``,
 ``n_failed``, ``failures``; ``D``, ``D_se`` (mm^2/s); ``E``, ``E_x``, ``E_y``,
 ``E_pot``, ``E_reference`` with ``_se`` (kg mm^2/s^2); ``stuck_fraction``(``_se``);
 ``collisions_per_particle_per_s``, ``jumps_per_particle_per_s`` (1/s); ``D_windows``
@@ -25,6 +26,7 @@ from bbdyn.commands import (
     save_result,
     units_of,
 )
+from bbdyn.core.status import FAST_FORWARD_MODES
 
 HELP = "run the reference ensemble at one frequency and print D, energies, stuck fraction"
 
@@ -35,6 +37,11 @@ def add_arguments(parser) -> None:
     parser.add_argument(
         "--transient", type=finite, default=None, help="time discarded before averages "
         "(s; default: t/5)"
+    )  # fmt: skip
+    parser.add_argument(
+        "--fast-forward", choices=FAST_FORWARD_MODES, default="converged",
+        help="skip stick-release cycles once they repeat bit for bit (bitwise), also once "
+        "converged to 1e-12 mm (converged, the default), or never (off); docs/billiard.md"
     )  # fmt: skip
     add_save_argument(parser)
 
@@ -55,6 +62,7 @@ def simulate_summary(args) -> dict:
         transient=args.transient,
         threads=args.threads,
         observables=("displacement", "energy"),
+        fast_forward=args.fast_forward,
         progress=bar.update_fraction,
     )
     bar.close()
@@ -63,6 +71,7 @@ def simulate_summary(args) -> dict:
     out = {"version": __version__, "params": params.to_dict(), "gamma": params.gamma}
     out.update(seed=args.seed, n=args.n, t=args.t, transient=res.meta["transient"])
     out["threads"] = res.meta["threads"]
+    out["fast_forward"] = res.meta["fast_forward"]
     out.update(res.summary())
     centres, D_w, se_w = einstein_D_windows(res["sample_times"], res["displacement"][res.ok])
     out["D_windows"] = {"t_centre": centres.tolist(), "D": D_w.tolist(), "D_se": se_w.tolist()}

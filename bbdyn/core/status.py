@@ -1,4 +1,4 @@
-"""Event kinds and run status codes shared by all kernels.
+"""Event kinds, run status codes and fast-forward modes shared by all kernels.
 
 Kernels return these integers; the Python layer turns a failure status into an
 exception whose message is ``STATUS_MESSAGES[code]``.
@@ -37,3 +37,8 @@ def raise_for_status(status: int, where: str) -> None:
     """Raise ``SimulationError`` naming ``where`` if ``status`` is a failure."""
     if status in FAILURES:
         raise SimulationError(f"{where}: {STATUS_MESSAGES[status]} (status {status})")
+
+
+#: Fast-forward modes of the ensemble (``bbdyn.ensemble.ensemble``, ``bbdyn simulate``):
+#: skip converged or bitwise repeating stick-release cycles, or none (``core.ensemble``).
+FAST_FORWARD_MODES = ("converged", "bitwise", "off")
