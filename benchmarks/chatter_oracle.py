@@ -1,0 +1,172 @@
+"""What a chattering sum accepted earlier could save at most: run times with an oracle sum.
+
+Route 3 of issue 12 would accept the closed-form chattering sum (``chatter_sum`` in
+``bbdyn/core/billiard.py``) at a larger normal velocity than today's error bound allows, so
+that the bounces before each stick need not be computed one by one.  This benchmark bounds
+its gain from above: for each velocity V (mm/s) a copy of the source tree is patched so that
+``chatter_sum`` returns its sum whenever ``V.n < V``, *without its error check* (the physics
+is then wrong at the level the check guards; only the timing means anything).  Each copy
+runs in its own worker process (those of ``kernel_buffers.py``: one numba thread, the
+default fast-forward, seed 1; its own numba cache), interleaved with the unpatched tree.
+
+Reported per sampled frequency: the median over the repeats of the CPU time of one run and
+its ratio unpatched / patched.  Applied to the points of a measured full scan (each point's
+``cpu_s`` divided by the ratio interpolated linearly in f within its band; the band's
+ends take the nearest sample), they predict the scan's CPU time per band for each V.
+
+Usage::
+
+    python benchmarks/chatter_oracle.py [--tree .] [--v 1e-4 1e-3 1e-2] [--f 50.2 55 ...]
+        [--n 16] [--t 200] [--repeats 3] [--scan docs/scan_compare/full_scan_323a012.json]
+        [--json]
+"""
+
+import argparse
+import json
+import os
+import shutil
+import statistics
+import sys
+import tempfile
+
+import numpy as np
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import kernel_buffers  # noqa: E402  (the worker processes and their protocol)
+
+#: The line of ``chatter_sum`` before which the oracle returns the sum.
+ANCHOR = "    if not (aw3 * tau_low < 0.5 * g_eff and drive_low * tau_low <= budget):\n"
+#: The oracle: the sum of ``chatter_sum`` itself, accepted below V without its error check.
+ORACLE = """    if vn < {v!r}:  # chatter_oracle.py: accepted without the error check
+        F = shrinking_series(eps, alpha, beta * beta)[0]
+        ab = alpha * beta
+        g_t = g_eff * xi / R
+        one_a2 = 1.0 - alpha * alpha
+        H = shrinking_series(eps, ab, beta * beta)[0]
+        ds = vt * tau0 * H + g_t * tau0 * tau0 * (ab / (one_a2 * (1.0 - ab)) + 0.5 / one_a2)
+        return tau0 * F, ds
+"""
+BANDS = ((49.8, 53.0), (53.2, 57.4), (57.6, 65.0), (65.2, 80.0), (80.2, 95.0))
+F_DEFAULT = [50.2, 51.0, 52.0, 55.0, 57.0, 60.0, 63.0, 64.0, 67.0, 70.0, 73.6, 75.0, 79.4,
+             80.4, 83.6, 85.2, 90.0, 95.0]  # fmt: skip
+
+
+def patched_source(source: str, v: float) -> str:
+    """``billiard.py``'s source with the oracle sum accepted below ``v`` (mm/s)."""
+    if source.count(ANCHOR) != 1:
+        raise RuntimeError("chatter_sum changed: the oracle's anchor line is not found once")
+    return source.replace(ANCHOR, ORACLE.format(v=float(v)) + ANCHOR)
+
+
+def patched_tree(tree: str, v: float, folder: str) -> str:
+    """A copy of ``tree``'s package in ``folder`` with the oracle at ``v``; returns its path."""
+    dest = os.path.join(folder, f"v{v:g}")
+    shutil.copytree(os.path.join(tree, "bbdyn"), os.path.join(dest, "bbdyn"),
+                    ignore=shutil.ignore_patterns("__pycache__"))  # fmt: skip
+    path = os.path.join(dest, "bbdyn", "core", "billiard.py")
+    with open(path) as fh:
+        source = fh.read()
+    with open(path, "w") as fh:
+        fh.write(patched_source(source, v))
+    return dest
+
+
+def start(tree: str, args, cache: str):
+    """A kernel_buffers worker on ``tree`` with its own numba cache ``cache``."""
+    os.environ["NUMBA_CACHE_DIR"] = cache
+    try:
+        return kernel_buffers.start(tree, argparse.Namespace(n=args.n, t=args.t, fast_forward=True))
+    finally:
+        del os.environ["NUMBA_CACHE_DIR"]
+
+
+def measure(args) -> dict:
+    """Interleaved repeats of every frequency in the unpatched tree and each oracle copy."""
+    with tempfile.TemporaryDirectory() as folder:
+        trees = [os.path.abspath(args.tree)]
+        trees += [patched_tree(args.tree, v, folder) for v in args.v]
+        procs = [
+            start(tree, args, os.path.join(folder, f"cache{i}")) for i, tree in enumerate(trees)
+        ]
+        for proc in procs:  # compile and warm up
+            kernel_buffers.ask(proc, args.f[0])
+        cpu = {(i, f): [] for i in range(len(trees)) for f in args.f}
+        for r in range(args.repeats):
+            for f in args.f:
+                order = list(enumerate(procs))[:: 1 if r % 2 == 0 else -1]
+                for i, proc in order:
+                    cpu[i, f].append(kernel_buffers.ask(proc, f)["cpu_s"])
+        for proc in procs:
+            proc.stdin.close()
+            proc.wait()
+    rows = []
+    for f in args.f:
+        base = statistics.median(cpu[0, f])
+        ratio = [base / statistics.median(cpu[i + 1, f]) for i in range(len(args.v))]
+        rows.append({"f": f, "cpu_s": base, "ratio": ratio})
+    return {"tree": kernel_buffers.tree_label(args.tree), "n": args.n, "t": args.t,
+            "repeats": args.repeats, "v": list(args.v), "rows": rows}  # fmt: skip
+
+
+def predict(report: dict, points: list[dict]) -> list[list[float]]:
+    """Per V of ``report``: the CPU s of ``points`` (a scan's ``f``, ``cpu_s``) per band, then
+    all, with each point divided by the ratio interpolated within its band."""
+    f_s = np.array([row["f"] for row in report["rows"]])
+    f = np.array([p["f"] for p in points])
+    cpu = np.array([p["cpu_s"] for p in points])
+    out = []
+    for j in range(len(report["v"])):
+        ratio = np.array([row["ratio"][j] for row in report["rows"]])
+        sums = []
+        for lo, hi in BANDS:
+            in_band = (f >= lo - 1e-9) & (f <= hi + 1e-9)
+            samples = (f_s >= lo - 1e-9) & (f_s <= hi + 1e-9)
+            r = np.interp(f[in_band], f_s[samples], ratio[samples])
+            sums.append(float((cpu[in_band] / r).sum()))
+        out.append(sums + [sum(sums)])
+    return out
+
+
+def doc_table(report: dict, points: list[dict]) -> str:
+    """Measured CPU s of the scan per band, and predicted with the oracle at each V."""
+    measured = [float(sum(p["cpu_s"] for p in points if lo - 1e-9 <= p["f"] <= hi + 1e-9))
+                for lo, hi in BANDS]  # fmt: skip
+    measured.append(sum(measured))
+    head = "| band (Hz) | measured | " + " | ".join(f"V = {v:g} mm/s" for v in report["v"]) + " |"
+    lines = [head, "|---|" + "---:|" * (1 + len(report["v"]))]
+    names = [f"{lo:g}-{hi:g}" for lo, hi in BANDS] + ["all"]
+    pred = predict(report, points)
+    for k, name in enumerate(names):
+        cells = " | ".join(f"{p[k]:.0f}" for p in pred)
+        lines.append(f"| {name} | {measured[k]:.0f} | {cells} |")
+    return "\n".join(lines)
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--tree", default=".", help="source tree (default: .)")
+    parser.add_argument("--v", type=float, nargs="+", default=[1e-4, 1e-3, 1e-2], help="mm/s")
+    parser.add_argument("--f", type=float, nargs="+", default=F_DEFAULT, help="Hz")
+    parser.add_argument("--n", type=int, default=16, help="particles")
+    parser.add_argument("--t", type=float, default=200.0, help="simulated time (s)")
+    parser.add_argument("--repeats", type=int, default=3, help="timed runs per tree and f")
+    scan = "docs/scan_compare/full_scan_323a012.json"
+    parser.add_argument("--scan", default=scan, help="a full scan's JSON (its points)")
+    parser.add_argument("--json", default=None, help="save the report here")
+    args = parser.parse_args()
+    report = measure(args)
+    with open(args.scan) as fh:
+        points = json.load(fh)["points"]
+    report["scan"] = args.scan
+    report["predicted_cpu_s"] = predict(report, points)
+    for row in report["rows"]:
+        ratios = "  ".join(f"{r:5.2f}" for r in row["ratio"])
+        print(f"f = {row['f']:5.1f} Hz: {row['cpu_s']:.3f} CPU-s, unpatched / oracle: {ratios}")
+    print(doc_table(report, points))
+    if args.json:
+        with open(args.json, "w") as fh:
+            json.dump(report, fh, indent=1)
+
+
+if __name__ == "__main__":
+    main()

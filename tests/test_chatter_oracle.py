@@ -1,0 +1,49 @@
+"""benchmarks/chatter_oracle.py: what an earlier chattering sum could save at most."""
+
+import json
+
+from derivation_loader import ROOT, load_benchmark
+
+
+def _module():
+    return load_benchmark("chatter_oracle")
+
+
+def test_the_patch_applies_to_the_kernel_once_and_compiles():
+    # the anchor is chatter_sum's first error check: the patch goes in front of it, once
+    m = _module()
+    source = (ROOT / "bbdyn" / "core" / "billiard.py").read_text()
+    patched = m.patched_source(source, 1e-3)
+    assert patched.count("chatter_oracle.py") == 1
+    assert patched.index("if vn < 0.001:") < patched.index(m.ANCHOR)
+    assert patched.index("def chatter_sum(") < patched.index("if vn < 0.001:")
+    compile(patched, "billiard.py", "exec")
+
+
+def test_prediction_divides_each_point_by_its_interpolated_ratio():
+    m = _module()
+    report = {"v": [1.0], "rows": [{"f": f, "ratio": [r]} for f, r in
+                                   ((50.0, 2.0), (53.0, 4.0), (55.0, 1.0), (60.0, 1.0),
+                                    (70.0, 1.0), (90.0, 1.0))]}  # fmt: skip
+    points = [{"f": 50.0, "cpu_s": 8.0}, {"f": 51.5, "cpu_s": 9.0}, {"f": 49.8, "cpu_s": 2.0},
+              {"f": 85.0, "cpu_s": 5.0}]  # fmt: skip
+    pred = m.predict(report, points)[0]
+    # 50 Hz: /2; 51.5 Hz: halfway between 2 and 4, /3; 49.8 Hz below the first sample: /2
+    assert pred[0] == 8.0 / 2 + 9.0 / 3 + 2.0 / 2
+    assert pred[4] == 5.0 and pred[-1] == sum(pred[:-1])
+
+
+def test_the_docs_show_the_committed_report():
+    m = _module()
+    report = json.loads((ROOT / "docs" / "scan_compare" / "chatter_oracle.json").read_text())
+    scan = json.loads((ROOT / report["scan"]).read_text())
+    wall = json.loads((ROOT / "docs" / "scan_compare" / "full_scan_323a012_wall.json").read_text())
+    text = (ROOT / "docs" / "benchmarks.md").read_text()
+    flat = " ".join(text.split())
+    assert m.doc_table(report, scan["points"]) in text
+    assert m.predict(report, scan["points"]) == report["predicted_cpu_s"]
+    walls = [p[-1] * wall["wall_s"] / scan["cpu_s"] for p in report["predicted_cpu_s"]]
+    assert "these are " + ", ".join(f"{w:.0f} s" for w in walls) + " wall" in flat
+    # "even the unchecked sum at the largest V leaves the scan above 10 minutes"
+    assert report["v"][-1] == max(report["v"]) and min(walls) > 600.0
+    assert "leaves the scan above 10 minutes (600 s)" in flat
