@@ -40,9 +40,11 @@ def worker(n: int, t: float, fast_forward: bool) -> None:
         print(json.dumps({"f": f, "events": events, "cpu_s": cpu}), flush=True)
 
 
-def start(tree: str, args) -> subprocess.Popen:
-    """A worker process on the source tree ``tree``."""
+def start(tree: str, args, cache: str | None = None) -> subprocess.Popen:
+    """A worker process on the source tree ``tree`` (with its own numba cache ``cache``)."""
     env = dict(os.environ, PYTHONPATH=os.path.abspath(tree), NUMBA_NUM_THREADS="1")
+    if cache is not None:
+        env["NUMBA_CACHE_DIR"] = cache
     cmd = [sys.executable, os.path.abspath(__file__), "--worker", "--n", str(args.n)]
     cmd += ["--t", str(args.t)] + (["--fast-forward"] if args.fast_forward else [])
     proc = subprocess.Popen(cmd, env=env, stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True)

@@ -156,7 +156,7 @@ def test_the_docs_table_is_the_committed_prediction():
     flat = " ".join(text.split())
     band_ratio_p, band_ratio_m = [], []
     for rows, points in zip(pred, meas, strict=True):
-        sums = sc._band_sums(points)
+        sums = sc.band_sums(points)
         for r, s in zip(rows[:-1], sums[:-1], strict=True):
             assert abs(r["predicted_cpu_s"] - s) <= r["error_cpu_s"]
         assert abs(rows[-1]["predicted_cpu_s"] - sums[-1]) <= 0.05 * sums[-1]
@@ -164,7 +164,7 @@ def test_the_docs_table_is_the_committed_prediction():
         assert 0.2 < rows[-1]["error_cpu_s"] / rows[-1]["predicted_cpu_s"] < 0.3
     for i in range(6):
         band_ratio_p.append(pred[0][i]["predicted_cpu_s"] / pred[1][i]["predicted_cpu_s"])
-        band_ratio_m.append(sc._band_sums(meas[0])[i] / sc._band_sums(meas[1])[i])
+        band_ratio_m.append(sc.band_sums(meas[0])[i] / sc.band_sums(meas[1])[i])
     assert (
         f"predicted speed-up ({min(band_ratio_p[:5]):.2f}-{max(band_ratio_p[:5]):.2f} per band, "
         f"{band_ratio_p[5]:.2f} in all)" in flat

@@ -402,13 +402,13 @@ def converged_cycle(carry, i, n_rel, ev, acc, counts, kp):
 
 
 @njit(cache=True, fastmath=FMA)
-def skip_cycles(carry, i, back, ev, k, bound, window, split, kp, energy, out):
+def skip_cycles(carry, i, back, ev, zone, k, bound, window, split, kp, energy, out):
     """Skip as many copies of the cycle since release ``back`` (ring index) as fit before
-    ``bound`` (see ``fast_forward``); returns ``(K, dP, dl)``, ``K = 0`` if none fits."""
+    ``bound`` in ``zone`` (see ``fast_forward``); returns ``(K, dP, dl)``, ``K = 0`` if none
+    fits."""
     rel_acc, rel_cnt = carry.rel_acc[i], carry.rel_cnt[i]
     acc, counts = out.blocks[i], out.counts[i]
     periods, phase, tile, xi = ev.periods, ev.phase, ev.tile, ev.xi
-    zone = release_zone(periods, phase, window)
     s = back % FF_LAGS
     r = carry.rel[i, s]
     if r[4] != zone or r[5] != k or rel_cnt[s, CNT_JUMPS] != counts[CNT_JUMPS]:
@@ -521,7 +521,9 @@ def fast_forward(carry, i, n_rel, ev, k, bound, window, split, kp, energy, conve
         if near <= FF_DRIFT_TOL:  # a candidate: the full test
             lag = converged_cycle(carry, i, n_rel, ev, acc, counts, kp)
     if lag > 0:
-        K, dP, dl = skip_cycles(carry, i, n_rel - lag, ev, k, bound, window, split, kp, energy, out)
+        K, dP, dl = skip_cycles(
+            carry, i, n_rel - lag, ev, zone, k, bound, window, split, kp, energy, out
+        )
         if K > 0:
             return K, dP, dl, 0
     s = n_rel % FF_LAGS

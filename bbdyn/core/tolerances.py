@@ -124,9 +124,10 @@ DOT_ROUND_PER_TERM = EPS
 SUM_ROUND_PER_TERM = EPS
 
 #: Converged cycles (``converged_cycle``): a cycle whose releases stay within this distance
-#: (mm) of each other and whose proven drift ahead, ``|F(x) - x| / (1 - |lam|)`` with the
-#: release map's multiplier ``lam`` (``core.cycle``), is below it too is skipped although it
-#: never repeats bit for bit.  1e-12 mm is 1e-12 of a tile: no observable resolves it.
+#: (mm) of each other and whose proven drift ahead, ``|lam| |x_n - x_{n-p}| / (1 - |lam|)``
+#: with the release map's multiplier ``lam`` (``core.cycle``), is below it too is skipped
+#: although it never repeats bit for bit.  1e-12 mm is 1e-12 of a tile: no observable
+#: resolves it.
 FF_DRIFT_TOL = 1e-12
 
 #: ... and whose last two cycles' integrals (E_x, E_y, g y, stuck time) agree to this

@@ -37,7 +37,8 @@ import numpy as np
 from bbdyn.reference.timing import single_thread
 from bbdyn.results import Result, make_meta
 
-__all__ = ["BANDS", "FULL", "QUICK", "agreement_sentence", "compute", "measured_table", "predict",
+__all__ = ["BANDS", "FULL", "QUICK", "agreement_sentence", "band_masks", "band_sums", "compute",
+           "measured_table", "predict",
            "predicted_vs_measured_table", "sample_frequencies",
            "table"]  # fmt: skip
 
@@ -238,7 +239,7 @@ def predicted_vs_measured_table(
     error) beside the measured CPU s of the scan it predicts (``points`` with ``f`` and
     ``cpu_s``), one pair of columns per label, and the ratio of the first to the last of each.
     """
-    sums = [_band_sums(points) for points in measured]
+    sums = [band_sums(points) for points in measured]
     head = [f"predicted, {x} | measured, {x}" for x in labels]
     lines = [
         f"| band (Hz) | {' | '.join(head)} | predicted ratio | measured ratio |",
@@ -247,24 +248,24 @@ def predicted_vs_measured_table(
     names = [f"{lo:g}-{hi:g}" for lo, hi in BANDS] + ["all"]
     for i, name in enumerate(names):
         cells, pred, meas = [], [], []
-        for rows, band_sums in zip(predicted, sums, strict=True):
+        for rows, scan_sums in zip(predicted, sums, strict=True):
             r = rows[i]
             pred.append(r["predicted_cpu_s"])
-            meas.append(band_sums[i])
+            meas.append(scan_sums[i])
             cells += [f"{r['predicted_cpu_s']:.0f} +- {r['error_cpu_s']:.0f}",
-                      f"{band_sums[i]:.0f}"]  # fmt: skip
+                      f"{scan_sums[i]:.0f}"]  # fmt: skip
         ratios = f"{pred[0] / pred[-1]:.2f} | {meas[0] / meas[-1]:.2f}"
         lines.append(f"| {name} | {' | '.join(cells)} | {ratios} |")
     return "\n".join(lines)
 
 
-def _band_sums(points: list[dict], bands=BANDS) -> list[float]:
+def band_sums(points: list[dict], bands=BANDS) -> list[float]:
     """CPU s of the points of each band (ends included), then of all of them."""
-    _, cpu, masks = _band_masks(points, bands)
+    _, cpu, masks = band_masks(points, bands)
     return [float(cpu[m].sum()) for m in masks] + [float(cpu.sum())]
 
 
-def _band_masks(points: list[dict], bands):
+def band_masks(points: list[dict], bands=BANDS):
     """``f`` (Hz), ``cpu_s`` and one mask per band of ``bands`` (ends included) of the points
     of ``bbdyn scan --json``."""
     f = np.array([p["f"] for p in points], dtype=float)
@@ -276,7 +277,7 @@ def measured_table(points: list[dict], bands=BANDS) -> str:
     """Where a real scan's time went: per band of ``bands``, the summed ``cpu_s`` of the
     points of ``bbdyn scan --json`` (``points``: dicts with ``f`` in Hz and ``cpu_s``), its
     share, the number of points and the costliest point (markdown table)."""
-    f, cpu, masks = _band_masks(points, bands)
+    f, cpu, masks = band_masks(points, bands)
     lines = ["| band (Hz) | CPU s | share | points | costliest point |", "|---|---:|---:|---:|---|"]
     for (lo, hi), sel in zip(bands, masks, strict=True):
         top = int(np.argmax(np.where(sel, cpu, -1.0)))
@@ -295,7 +296,7 @@ def measured_speedup_table(before: list[dict], after: list[dict], bands=BANDS) -
         raise ValueError("the two scans must have the same frequency grid")
     lines = ["| band (Hz) | CPU s before | CPU s after | before / after |", "|---|---:|---:|---:|"]
     names = [f"{lo:g}-{hi:g}" for lo, hi in bands] + ["all"]
-    for name, a, b in zip(names, _band_sums(before, bands), _band_sums(after, bands), strict=True):
+    for name, a, b in zip(names, band_sums(before, bands), band_sums(after, bands), strict=True):
         lines.append(f"| {name} | {a:.0f} | {b:.0f} | {a / b:.2f} |")
     return "\n".join(lines)
 
