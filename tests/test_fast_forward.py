@@ -178,7 +178,12 @@ def _release_points(f, count):
 
 
 def test_the_numbers_in_the_docs():
+    from bbdyn.core.ensemble import FF_LAGS
+
     text = " ".join((ROOT / "docs" / "billiard.md").read_text().split())
+    assert f"`FF_LAGS` = {FF_LAGS} releases" in text
+    assert f"`FF_DRIFT_TOL` = {FF_DRIFT_TOL:g} mm" in text
+    assert f"`FF_ENERGY_REL_TOL` = {FF_ENERGY_REL_TOL:g}" in text
     ev, kp = _release(70.2)
     lam = release_map(*ev[:4], 2, 10_000, kp)[0]
     assert f"has the multiplier {lam:.2f}" in text
