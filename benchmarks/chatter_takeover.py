@@ -1,0 +1,205 @@
+"""What depends on where the chattering sum takes over: the classifier's creep label, and time.
+
+The event kernel computes the first bounces of a chattering sequence one by one and sums
+the rest in closed form (``chatter_sum`` in ``bbdyn/core/billiard.py``) once the sum's
+neglected terms are below ``CHATTER_REL_TOL`` of a period.  Each bounce computed is a
+collision; the classifier calls an attractor *creeping* (regime c) when at least
+``creep_min`` = 0.5 of its collisions are tiny hops.  How many chattering bounces a run
+counts therefore depends on where the sum takes over, which this benchmark varies:
+
+* the tree as it is (``--tree``);
+* copies of it with ``CHATTER_REL_TOL`` multiplied by each ``--scale`` (the same sum,
+  accepted with a looser or tighter budget);
+* other source trees (``--other``), e.g. a worktree of the branch ``route3-drive-shift``,
+  whose sum is corrected for the drive to first order and so is accepted earlier at the
+  same budget.
+
+For every tree and frequency ``bbdyn classify --f F --n N --t T --seed 0 --threads 1``
+(its own numba cache) gives the regime and each attractor's tiny-hop fraction and D.  For
+the ``--other`` trees the scan's runs are also timed against the tree (the workers of
+``kernel_buffers.py``, medians of ``--repeats``), and the ratios applied to a measured full
+scan as in ``chatter_oracle.py``.
+
+Usage::
+
+    git worktree add ../route3 route3-drive-shift
+    python benchmarks/chatter_takeover.py [--tree .] [--scale 0.25 4 64] [--other ../route3]
+        [--f 70 71.4 74.8 78.4 81.6] [--n 20] [--t 20] [--repeats 3] [--json OUT]
+"""
+
+import argparse
+import json
+import os
+import shutil
+import statistics
+import subprocess
+import sys
+import tempfile
+from concurrent.futures import ThreadPoolExecutor
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import chatter_oracle  # noqa: E402  (F_DEFAULT, predict: the scan prediction)
+import kernel_buffers  # noqa: E402  (the timing workers)
+
+#: The line of ``bbdyn/core/tolerances.py`` that sets the sum's budget.
+ANCHOR = "CHATTER_REL_TOL = 64.0 * EPS\n"
+F_CLASSIFY = [70.0, 71.4, 74.8, 78.4, 81.6]
+
+
+def scaled_source(source: str, scale: float) -> str:
+    """``tolerances.py``'s source with ``CHATTER_REL_TOL`` multiplied by ``scale``."""
+    if source.count(ANCHOR) != 1:
+        raise RuntimeError("tolerances.py changed: the CHATTER_REL_TOL line is not found once")
+    return source.replace(ANCHOR, f"CHATTER_REL_TOL = {64.0 * scale!r} * EPS\n")
+
+
+def scaled_tree(tree: str, scale: float, folder: str) -> str:
+    """A copy of ``tree``'s package in ``folder`` with the scaled budget; returns its path."""
+    dest = os.path.join(folder, f"scale{scale:g}")
+    shutil.copytree(os.path.join(tree, "bbdyn"), os.path.join(dest, "bbdyn"),
+                    ignore=shutil.ignore_patterns("__pycache__"))  # fmt: skip
+    path = os.path.join(dest, "bbdyn", "core", "tolerances.py")
+    with open(path) as fh:
+        source = fh.read()
+    with open(path, "w") as fh:
+        fh.write(scaled_source(source, scale))
+    return dest
+
+
+def tree_env(tree: str, cache: str) -> dict:
+    """Environment of a run on ``tree`` with the numba cache ``cache``; checks that bbdyn is
+    imported from ``tree`` when run with ``cache`` as the working directory."""
+    env = dict(os.environ, PYTHONPATH=os.path.abspath(tree), NUMBA_CACHE_DIR=cache)
+    cmd = [sys.executable, "-c", "import bbdyn; print(bbdyn.__file__)"]
+    loaded = subprocess.run(cmd, env=env, cwd=cache, capture_output=True, text=True, check=True)
+    if not loaded.stdout.strip().startswith(os.path.abspath(tree)):
+        raise RuntimeError(f"a run on {tree} imported bbdyn from {loaded.stdout.strip()}")
+    return env
+
+
+def classify(tree: str, cache: str, f: float, n: int, t: float) -> dict:
+    """``bbdyn classify`` at ``f`` on ``tree`` (numba cache and working directory ``cache``):
+    regime and, per attractor, its share of the particles, character, tiny-hop fraction,
+    collision rate and D."""
+    env = tree_env(tree, cache)
+    cmd = [sys.executable, "-m", "bbdyn", "classify", "--f", str(f), "--n", str(n),
+           "--t", str(t), "--seed", "0", "--threads", "1", "--json"]  # fmt: skip
+    # run outside any source tree: ``python -m`` puts the working directory first on the path
+    out = subprocess.run(cmd, env=env, cwd=cache, capture_output=True, text=True, check=True)
+    res = json.loads(out.stdout)
+    keys = ("fraction", "character", "tiny_fraction", "collision_rate", "D", "D_se")
+    return {"f": f, "regime": res["regime"],
+            "attractors": [{k: a[k] for k in keys} for a in res["attractors"]]}  # fmt: skip
+
+
+def time_trees(trees: list[str], args, folder: str) -> list[dict]:
+    """Median CPU s of the scan's runs per frequency on each tree, interleaved."""
+    worker = argparse.Namespace(n=16, t=200.0, fast_forward=True)
+    procs = [kernel_buffers.start(tree, worker, os.path.join(folder, f"tcache{i}"))
+             for i, tree in enumerate(trees)]  # fmt: skip
+    for proc in procs:  # compile and warm up
+        kernel_buffers.ask(proc, chatter_oracle.F_DEFAULT[0])
+    cpu = {(i, f): [] for i in range(len(trees)) for f in chatter_oracle.F_DEFAULT}
+    for r in range(args.repeats):
+        for f in chatter_oracle.F_DEFAULT:
+            order = list(enumerate(procs))[:: 1 if r % 2 == 0 else -1]
+            for i, proc in order:
+                cpu[i, f].append(kernel_buffers.ask(proc, f)["cpu_s"])
+    for proc in procs:
+        proc.stdin.close()
+        proc.wait()
+    return [{"f": f, "cpu_s": [statistics.median(cpu[i, f]) for i in range(len(trees))]}
+            for f in chatter_oracle.F_DEFAULT]  # fmt: skip
+
+
+def measure(args) -> dict:
+    """Classification on every tree, timing of the ``--other`` trees against the tree."""
+    with tempfile.TemporaryDirectory() as folder:
+        scaled = [scaled_tree(args.tree, s, folder) for s in args.scale]
+        trees = [args.tree, *scaled, *args.other]
+        labels = (["as is"] + [f"CHATTER_REL_TOL x {s:g}" for s in args.scale]
+                  + [kernel_buffers.tree_label(o) for o in args.other])  # fmt: skip
+        jobs = [(i, f) for i in range(len(trees)) for f in args.f]
+        for i in range(len(trees)):
+            os.makedirs(os.path.join(folder, f"cache{i}"))
+        with ThreadPoolExecutor(max_workers=args.workers) as pool:
+            runs = list(pool.map(lambda job: classify(trees[job[0]],
+                                 os.path.join(folder, f"cache{job[0]}"), job[1], args.n, args.t),
+                                 jobs))  # fmt: skip
+        timing = time_trees([args.tree, *args.other], args, folder) if args.other else []
+    pairs = list(zip(jobs, runs, strict=True))
+    variants = [{"label": label, "runs": [r for (i, _), r in pairs if i == k]}
+                for k, label in enumerate(labels)]  # fmt: skip
+    return {"tree": kernel_buffers.tree_label(args.tree), "n": args.n, "t": args.t,
+            "seed": 0, "variants": variants, "timing": timing,
+            "timed": [kernel_buffers.tree_label(o) for o in args.other]}  # fmt: skip
+
+
+def creeping_share(run: dict) -> float:
+    """Tiny-hop fraction of the attractor holding most particles."""
+    return max(run["attractors"], key=lambda a: a["fraction"])["tiny_fraction"]
+
+
+def doc_table(report: dict) -> str:
+    """Per frequency and variant: regime and the main attractor's tiny-hop fraction."""
+    freqs = [r["f"] for r in report["variants"][0]["runs"]]
+    head = "| variant | " + " | ".join(f"{f:g} Hz" for f in freqs) + " |"
+    lines = [head, "|---|" + "---:|" * len(freqs)]
+    for v in report["variants"]:
+        cells = " | ".join(f"{r['regime']} ({creeping_share(r):.3f})" for r in v["runs"])
+        lines.append(f"| {v['label']} | {cells} |")
+    return "\n".join(lines)
+
+
+def predicted_scan(report: dict, points: list[dict]) -> list[list[float]]:
+    """Per timed tree: the scan's CPU s per band and all, from the measured ratios."""
+    rows = [{"f": r["f"], "ratio": [r["cpu_s"][0] / c for c in r["cpu_s"][1:]]}
+            for r in report["timing"]]  # fmt: skip
+    return chatter_oracle.predict({"v": report["timed"], "rows": rows}, points)
+
+
+def scan_table(report: dict, points: list[dict]) -> str:
+    """Measured CPU s of the scan per band, and predicted on each timed tree."""
+    from bbdyn.scenes.b2_scan_cost import BANDS, band_sums
+
+    measured = band_sums(points)
+    pred = predicted_scan(report, points)
+    head = "| band (Hz) | measured | " + " | ".join(report["timed"]) + " |"
+    lines = [head, "|---|" + "---:|" * (1 + len(pred))]
+    names = [f"{lo:g}-{hi:g}" for lo, hi in BANDS] + ["all"]
+    for k, name in enumerate(names):
+        cells = " | ".join(f"{p[k]:.0f}" for p in pred)
+        lines.append(f"| {name} | {measured[k]:.0f} | {cells} |")
+    return "\n".join(lines)
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--tree", default=".", help="source tree (default: .)")
+    parser.add_argument("--scale", type=float, nargs="*", default=[0.25, 4.0, 64.0],
+                        help="factors of CHATTER_REL_TOL")  # fmt: skip
+    parser.add_argument("--other", nargs="*", default=[], help="other source trees")
+    parser.add_argument("--f", type=float, nargs="+", default=F_CLASSIFY, help="Hz")
+    parser.add_argument("--n", type=int, default=20, help="particles")
+    parser.add_argument("--t", type=float, default=20.0, help="simulated time (s)")
+    parser.add_argument("--repeats", type=int, default=3, help="timed runs per tree and f")
+    parser.add_argument("--workers", type=int, default=2, help="classify runs at once")
+    scan = "docs/scan_compare/full_scan_323a012.json"
+    parser.add_argument("--scan", default=scan, help="a full scan's JSON (its points)")
+    parser.add_argument("--json", default=None, help="save the report here")
+    args = parser.parse_args()
+    report = measure(args)
+    print(doc_table(report))
+    if report["timing"]:
+        with open(args.scan) as fh:
+            points = json.load(fh)["points"]
+        report["scan"] = args.scan
+        report["predicted_cpu_s"] = predicted_scan(report, points)
+        print(scan_table(report, points))
+    if args.json:
+        with open(args.json, "w") as fh:
+            json.dump(report, fh, indent=1)
+
+
+if __name__ == "__main__":
+    main()
