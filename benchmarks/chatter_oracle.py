@@ -52,17 +52,44 @@ def patched_source(source: str, v: float) -> str:
     return source.replace(ANCHOR, ORACLE.format(v=float(v)))
 
 
-def patched_tree(tree: str, v: float, folder: str) -> str:
-    """A copy of ``tree``'s package in ``folder`` with the oracle at ``v``; returns its path."""
-    dest = os.path.join(folder, f"v{v:g}")
+def copy_with_patch(tree: str, dest: str, relpath: str, patch) -> str:
+    """A copy of ``tree``'s package at ``dest`` with the file ``relpath`` (under ``bbdyn/``)
+    replaced by ``patch(its source)``; returns ``dest``."""
     shutil.copytree(os.path.join(tree, "bbdyn"), os.path.join(dest, "bbdyn"),
                     ignore=shutil.ignore_patterns("__pycache__"))  # fmt: skip
-    path = os.path.join(dest, "bbdyn", "core", "billiard.py")
+    path = os.path.join(dest, "bbdyn", relpath)
     with open(path) as fh:
         source = fh.read()
     with open(path, "w") as fh:
-        fh.write(patched_source(source, v))
+        fh.write(patch(source))
     return dest
+
+
+def patched_tree(tree: str, v: float, folder: str) -> str:
+    """A copy of ``tree``'s package in ``folder`` with the oracle at ``v``; returns its path."""
+    return copy_with_patch(tree, os.path.join(folder, f"v{v:g}"), "core/billiard.py",
+                           lambda source: patched_source(source, v))  # fmt: skip
+
+
+def timed_runs(trees: list[str], args, folder: str) -> dict:
+    """CPU s of the scan's runs (``args.n`` particles, ``args.t`` s) at each ``args.f``, on
+    every tree in its own worker (numba cache in ``folder``), compiled first, then
+    ``args.repeats`` rounds interleaved in alternating order: ``{(tree index, f): [s, ...]}``."""
+    worker = argparse.Namespace(n=args.n, t=args.t, fast_forward=True)
+    procs = [kernel_buffers.start(tree, worker, os.path.join(folder, f"cache{i}"))
+             for i, tree in enumerate(trees)]  # fmt: skip
+    for proc in procs:  # compile and warm up
+        kernel_buffers.ask(proc, args.f[0])
+    cpu = {(i, f): [] for i in range(len(trees)) for f in args.f}
+    for r in range(args.repeats):
+        for f in args.f:
+            order = list(enumerate(procs))[:: 1 if r % 2 == 0 else -1]
+            for i, proc in order:
+                cpu[i, f].append(kernel_buffers.ask(proc, f)["cpu_s"])
+    for proc in procs:
+        proc.stdin.close()
+        proc.wait()
+    return cpu
 
 
 def measure(args) -> dict:
@@ -70,22 +97,7 @@ def measure(args) -> dict:
     with tempfile.TemporaryDirectory() as folder:
         trees = [os.path.abspath(args.tree)]
         trees += [patched_tree(args.tree, v, folder) for v in args.v]
-        worker = argparse.Namespace(n=args.n, t=args.t, fast_forward=True)
-        procs = [
-            kernel_buffers.start(tree, worker, os.path.join(folder, f"cache{i}"))
-            for i, tree in enumerate(trees)
-        ]
-        for proc in procs:  # compile and warm up
-            kernel_buffers.ask(proc, args.f[0])
-        cpu = {(i, f): [] for i in range(len(trees)) for f in args.f}
-        for r in range(args.repeats):
-            for f in args.f:
-                order = list(enumerate(procs))[:: 1 if r % 2 == 0 else -1]
-                for i, proc in order:
-                    cpu[i, f].append(kernel_buffers.ask(proc, f)["cpu_s"])
-        for proc in procs:
-            proc.stdin.close()
-            proc.wait()
+        cpu = timed_runs(trees, args, folder)
     rows = []
     for f in args.f:
         base = statistics.median(cpu[0, f])
@@ -110,30 +122,41 @@ def predict(report: dict, points: list[dict]) -> list[list[float]]:
     return out
 
 
-def doc_table(report: dict, points: list[dict]) -> str:
-    """Measured CPU s of the scan per band, and predicted with the oracle at each V."""
+def band_table(points: list[dict], pred: list[list[float]], labels: list[str]) -> str:
+    """Markdown: the measured CPU s of the scan ``points`` per band and all, then each
+    prediction of ``pred`` (as ``predict`` returns) under its label."""
     measured = band_sums(points)
-    head = "| band (Hz) | measured | " + " | ".join(f"V = {v:g} mm/s" for v in report["v"]) + " |"
-    lines = [head, "|---|" + "---:|" * (1 + len(report["v"]))]
+    head = "| band (Hz) | measured | " + " | ".join(labels) + " |"
+    lines = [head, "|---|" + "---:|" * (1 + len(labels))]
     names = [f"{lo:g}-{hi:g}" for lo, hi in BANDS] + ["all"]
-    pred = predict(report, points)
     for k, name in enumerate(names):
         cells = " | ".join(f"{p[k]:.0f}" for p in pred)
         lines.append(f"| {name} | {measured[k]:.0f} | {cells} |")
     return "\n".join(lines)
 
 
-def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+def doc_table(report: dict, points: list[dict]) -> str:
+    """Measured CPU s of the scan per band, and predicted with the oracle at each V."""
+    labels = [f"V = {v:g} mm/s" for v in report["v"]]
+    return band_table(points, predict(report, points), labels)
+
+
+def add_common_arguments(parser: argparse.ArgumentParser) -> None:
+    """``--tree``, ``--repeats``, ``--scan`` and ``--json`` (shared with chatter_takeover.py)."""
     parser.add_argument("--tree", default=".", help="source tree (default: .)")
-    parser.add_argument("--v", type=float, nargs="+", default=[1e-4, 1e-3, 1e-2], help="mm/s")
-    parser.add_argument("--f", type=float, nargs="+", default=F_DEFAULT, help="Hz")
-    parser.add_argument("--n", type=int, default=16, help="particles")
-    parser.add_argument("--t", type=float, default=200.0, help="simulated time (s)")
     parser.add_argument("--repeats", type=int, default=3, help="timed runs per tree and f")
     scan = "docs/scan_compare/full_scan_323a012.json"
     parser.add_argument("--scan", default=scan, help="a full scan's JSON (its points)")
     parser.add_argument("--json", default=None, help="save the report here")
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    add_common_arguments(parser)
+    parser.add_argument("--v", type=float, nargs="+", default=[1e-4, 1e-3, 1e-2], help="mm/s")
+    parser.add_argument("--f", type=float, nargs="+", default=F_DEFAULT, help="Hz")
+    parser.add_argument("--n", type=int, default=16, help="particles")
+    parser.add_argument("--t", type=float, default=200.0, help="simulated time (s)")
     args = parser.parse_args()
     report = measure(args)
     with open(args.scan) as fh:

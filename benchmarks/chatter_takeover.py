@@ -30,7 +30,6 @@ Usage::
 import argparse
 import json
 import os
-import shutil
 import statistics
 import subprocess
 import sys
@@ -38,8 +37,8 @@ import tempfile
 from concurrent.futures import ThreadPoolExecutor
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-import chatter_oracle  # noqa: E402  (F_DEFAULT, predict: the scan prediction)
-import kernel_buffers  # noqa: E402  (the timing workers)
+import chatter_oracle  # noqa: E402  (the patched copies, the timed runs, the scan prediction)
+import kernel_buffers  # noqa: E402  (tree_label)
 
 #: The line of ``bbdyn/core/tolerances.py`` that sets the sum's budget.
 ANCHOR = "CHATTER_REL_TOL = 64.0 * EPS\n"
@@ -55,15 +54,9 @@ def scaled_source(source: str, scale: float) -> str:
 
 def scaled_tree(tree: str, scale: float, folder: str) -> str:
     """A copy of ``tree``'s package in ``folder`` with the scaled budget; returns its path."""
-    dest = os.path.join(folder, f"scale{scale:g}")
-    shutil.copytree(os.path.join(tree, "bbdyn"), os.path.join(dest, "bbdyn"),
-                    ignore=shutil.ignore_patterns("__pycache__"))  # fmt: skip
-    path = os.path.join(dest, "bbdyn", "core", "tolerances.py")
-    with open(path) as fh:
-        source = fh.read()
-    with open(path, "w") as fh:
-        fh.write(scaled_source(source, scale))
-    return dest
+    return chatter_oracle.copy_with_patch(tree, os.path.join(folder, f"scale{scale:g}"),
+                                          "core/tolerances.py",
+                                          lambda source: scaled_source(source, scale))  # fmt: skip
 
 
 def tree_env(tree: str, cache: str) -> dict:
@@ -93,21 +86,12 @@ def classify(tree: str, cache: str, f: float, n: int, t: float) -> dict:
 
 
 def time_trees(trees: list[str], args, folder: str) -> list[dict]:
-    """Median CPU s of the scan's runs per frequency on each tree, interleaved."""
-    worker = argparse.Namespace(n=16, t=200.0, fast_forward=True)
-    procs = [kernel_buffers.start(tree, worker, os.path.join(folder, f"tcache{i}"))
-             for i, tree in enumerate(trees)]  # fmt: skip
-    for proc in procs:  # compile and warm up
-        kernel_buffers.ask(proc, chatter_oracle.F_DEFAULT[0])
-    cpu = {(i, f): [] for i in range(len(trees)) for f in chatter_oracle.F_DEFAULT}
-    for r in range(args.repeats):
-        for f in chatter_oracle.F_DEFAULT:
-            order = list(enumerate(procs))[:: 1 if r % 2 == 0 else -1]
-            for i, proc in order:
-                cpu[i, f].append(kernel_buffers.ask(proc, f)["cpu_s"])
-    for proc in procs:
-        proc.stdin.close()
-        proc.wait()
+    """Median CPU s of the scan's runs (16 particles, 200 s, ``chatter_oracle.F_DEFAULT``) per
+    frequency on each tree, interleaved (``chatter_oracle.timed_runs``)."""
+    runs = argparse.Namespace(n=16, t=200.0, f=chatter_oracle.F_DEFAULT, repeats=args.repeats)
+    timing = os.path.join(folder, "timing")  # numba caches apart from the classify runs
+    os.makedirs(timing)
+    cpu = chatter_oracle.timed_runs(trees, runs, timing)
     return [{"f": f, "cpu_s": [statistics.median(cpu[i, f]) for i in range(len(trees))]}
             for f in chatter_oracle.F_DEFAULT]  # fmt: skip
 
@@ -160,33 +144,19 @@ def predicted_scan(report: dict, points: list[dict]) -> list[list[float]]:
 
 def scan_table(report: dict, points: list[dict]) -> str:
     """Measured CPU s of the scan per band, and predicted on each timed tree."""
-    from bbdyn.scenes.b2_scan_cost import BANDS, band_sums
-
-    measured = band_sums(points)
-    pred = predicted_scan(report, points)
-    head = "| band (Hz) | measured | " + " | ".join(report["timed"]) + " |"
-    lines = [head, "|---|" + "---:|" * (1 + len(pred))]
-    names = [f"{lo:g}-{hi:g}" for lo, hi in BANDS] + ["all"]
-    for k, name in enumerate(names):
-        cells = " | ".join(f"{p[k]:.0f}" for p in pred)
-        lines.append(f"| {name} | {measured[k]:.0f} | {cells} |")
-    return "\n".join(lines)
+    return chatter_oracle.band_table(points, predicted_scan(report, points), report["timed"])
 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--tree", default=".", help="source tree (default: .)")
+    chatter_oracle.add_common_arguments(parser)
     parser.add_argument("--scale", type=float, nargs="*", default=[0.25, 4.0, 64.0],
                         help="factors of CHATTER_REL_TOL")  # fmt: skip
     parser.add_argument("--other", nargs="*", default=[], help="other source trees")
     parser.add_argument("--f", type=float, nargs="+", default=F_CLASSIFY, help="Hz")
     parser.add_argument("--n", type=int, default=20, help="particles")
     parser.add_argument("--t", type=float, default=20.0, help="simulated time (s)")
-    parser.add_argument("--repeats", type=int, default=3, help="timed runs per tree and f")
     parser.add_argument("--workers", type=int, default=2, help="classify runs at once")
-    scan = "docs/scan_compare/full_scan_323a012.json"
-    parser.add_argument("--scan", default=scan, help="a full scan's JSON (its points)")
-    parser.add_argument("--json", default=None, help="save the report here")
     args = parser.parse_args()
     report = measure(args)
     print(doc_table(report))

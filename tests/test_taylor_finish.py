@@ -1,5 +1,5 @@
 """The end of a descending flight from the Taylor polynomial of its gap
-(core.billiard.taylor_finish).
+(core.taylor.taylor_finish).
 
 Once the safe-step search is near a transversal contact (the gap falling, ``G / |G'|``
 below a quarter radian of the drive), the contact is solved by Newton on the gap's Taylor
@@ -21,15 +21,11 @@ from flight_rules import both_rules, flight_starts, random_starts
 from numba import njit
 
 from bbdyn import Params
-from bbdyn.core.billiard import (
-    crossing_time,
-    segment_gap_phase,
-    taylor_finish,
-    tile_offset,
-)
+from bbdyn.core.billiard import crossing_time, segment_gap_phase, tile_offset
 from bbdyn.core.floor import arc_root
 from bbdyn.core.plate import sin_cos
 from bbdyn.core.status import OK
+from bbdyn.core.taylor import taylor_finish
 from bbdyn.core.tolerances import EPS
 
 FREQS = (50.2, 70.2, 85.2)

@@ -81,6 +81,15 @@ from bbdyn.core.status import (
     ROOT_NOT_CONVERGED,
     STICK,
 )
+from bbdyn.core.taylor import (
+    arc_remainder,
+    drive_degree,
+    gap_coefficients,
+    gap_jerk_bound,
+    gap_series,
+    series_rate,
+    taylor_finish,
+)
 from bbdyn.core.tolerances import (
     CHATTER_REL_TOL,
     DEPARTURE_MARGIN,
@@ -92,7 +101,6 @@ from bbdyn.core.tolerances import (
     ROOT_MAX_STEPS,
     ROOT_STEP_REL,
     SERIES_MAX_TERMS,
-    TAYLOR_MAX_DEGREE,
     TAYLOR_MAX_SPAN,
     TAYLOR_NEWTON_MAX,
     TAYLOR_NEWTON_REL,
@@ -205,103 +213,6 @@ def flight_step(G, Gp, m, M, K, cubic):
     return cubic_safe_step(G, Gp, m, M, K) if cubic else safe_step(G, Gp, M)
 
 
-#: 1 / n! for n = 0 .. TAYLOR_MAX_DEGREE: the Taylor coefficients of the drive.
-INV_FACTORIAL = tuple(1.0 / math.factorial(n) for n in range(TAYLOR_MAX_DEGREE + 1))
-
-
-@njit(cache=True, fastmath=FMA, inline="always")
-def drive_degree(aw, x, budget):
-    """Lowest degree N in [4, TAYLOR_MAX_DEGREE] of the drive's Taylor polynomial whose
-    remainder in the rate, ``A w x^N / N!`` (``aw = A w``, ``x = w u_max`` the span), is at
-    most ``budget`` (mm/s); 0 if none is.  The remainder in the gap is then at most ``u_max /
-    (N + 1)`` times that (``|d^n/du^n A sin(theta + w u)| <= A w^n``)."""
-    term = aw * x * x * x * x * (1.0 / 24.0)
-    for N in range(4, TAYLOR_MAX_DEGREE + 1):
-        if term <= budget:
-            return N
-        term *= x / (N + 1)
-    return 0
-
-
-@njit(cache=True, fastmath=FMA, inline="always")
-def drive_tail(y, sn, cs, N):
-    """``(T, T')``: ``T = sum_{n=5..N} s_n y^(n-5) / n!``, ``T' = sum_{n=5..N} s_n y^(n-5) /
-    (n-1)!`` with ``s_n = sin^(n)(theta)`` (``sn, cs`` its sine and cosine).  The drive's terms
-    of degree >= 5 are ``A y^5 T`` in the gap and ``A w y^4 T'`` in its rate (``y = w u``)."""
-    s4 = (sn, cs, -sn, -cs)
-    T = 0.0
-    Tp = 0.0
-    for n in range(N, 4, -1):
-        s = s4[n % 4]
-        T = T * y + s * INV_FACTORIAL[n]
-        Tp = Tp * y + s * INV_FACTORIAL[n - 1]
-    return T, Tp
-
-
-@njit(cache=True, fastmath=FMA, inline="always")
-def gap_coefficients(sn, cs, xi, S, vx, kp):
-    """Taylor coefficients of degree 2 to 4 of the gap over one arc (see ``tiny_hop``).
-
-    At phase theta (``sn, cs``) and ``xi`` (mm, ``S = sqrt(R^2 - xi^2)``) with horizontal
-    velocity ``vx`` (mm/s): returns ``(F_2, g_2, g_3, g_4)``, ``g_n = F_n + B_n`` (mm/s^n).
-    """
-    A, w, R = kp.A, kp.w, kp.R
-    aw2 = A * w * w
-    R2 = R * R
-    inv_S = 1.0 / S
-    S3 = inv_S * inv_S * inv_S
-    S5 = S3 * inv_S * inv_S
-    vx2 = vx * vx
-    F2 = -kp.g - aw2 * sn
-    g2 = F2 + R2 * vx2 * S3
-    g3 = -aw2 * w * cs + 3.0 * R2 * xi * vx2 * vx * S5
-    g4 = aw2 * w * w * sn + 3.0 * R2 * (R2 + 4.0 * xi * xi) * vx2 * vx2 * S5 * inv_S * inv_S
-    return F2, g2, g3, g4
-
-
-@njit(cache=True, fastmath=FMA, inline="always")
-def gap_jerk_bound(vx, kp):
-    """Bound (mm/s^3) of the gap's third derivative on a tile: ``A w^3 + 3 R^2 h |vx|^3 /
-    c0^5`` (h = d/2)."""
-    c0 = kp.c0
-    c0_2 = c0 * c0
-    avx = abs(vx)
-    return kp.A * kp.w**3 + 3.0 * kp.R**2 * 0.5 * kp.d * avx * avx * avx / (c0_2 * c0_2 * c0)
-
-
-@njit(cache=True, fastmath=FMA, inline="always")
-def arc_remainder(vx, u, kp):
-    """Bound (mm) of the arc's part of the gap's Taylor remainder after degree 4 over ``u``
-    seconds: ``C5 |vx|^5 u^5 / 5!`` (``C5 = kp.arc5_bound``, see ``tiny_hop``)."""
-    vu = abs(vx) * u
-    return kp.arc5_bound * vu * vu * vu * vu * vu * (1.0 / 120.0)
-
-
-@njit(cache=True, fastmath=FMA, inline="always")
-def gap_series(t, G, Gp, g2, g3, g4, sn, cs, A, w, N):
-    """The gap's Taylor polynomial (mm) and its rate (mm/s) ``t`` s after a point where they
-    are ``G, Gp``: ``G + Gp t + g_2 t^2/2 + g_3 t^3/6 + g_4 t^4/24 + A y^5 T`` and its
-    derivative (``y = w t``, ``T`` of ``drive_tail`` to degree N; see ``tiny_hop``)."""
-    y = w * t
-    T, Tp = drive_tail(y, sn, cs, N)
-    y4 = y * y * y * y
-    c2, c3, c4 = 0.5 * g2, g3 * (1.0 / 6.0), g4 * (1.0 / 24.0)
-    P = G + t * (Gp + t * (c2 + t * (c3 + t * c4))) + A * y4 * y * T
-    dP = Gp + t * (g2 + t * (3.0 * c3 + t * (4.0 * c4))) + A * w * y4 * Tp
-    return P, dP
-
-
-@njit(cache=True, fastmath=FMA, inline="always")
-def series_rate(t, Fp, F2, sn, cs, A, w, N):
-    """The rate ``F'`` (mm/s) ``t`` s after a point where it is ``Fp``, from its series:
-    ``Fp + F_2 t + A w (-cos y^2 / 2 + sin y^3 / 6) + A w y^4 T'`` (``y = w t``, ``T'`` of
-    ``drive_tail`` to degree N; the arc has no part in it)."""
-    y = w * t
-    Tp = drive_tail(y, sn, cs, N)[1]
-    y2 = y * y
-    return Fp + F2 * t + A * w * y2 * (-0.5 * cs + y * (sn * (1.0 / 6.0)) + y2 * Tp)
-
-
 @njit(cache=True, fastmath=FMA, inline="always")
 def tiny_hop(sn, cs, xi0, S0, vx, vyrel, Gp, kp):
     """A short hop on one arc, solved from the Taylor polynomial of its gap (chattering).
@@ -368,66 +279,6 @@ def tiny_hop(sn, cs, xi0, S0, vx, vyrel, Gp, kp):
     if not 0.0 < t < tau_max:
         return fail
     return t, xi0 + vx * t, series_rate(t, vyrel, F2, sn, cs, A, w, N), True
-
-
-@njit(cache=True, fastmath=FMA, inline="always")
-def taylor_finish(tau, G, Gp, Fp, sn, cs, xi, vx, room, kp):
-    """The contact of a descending flight from the Taylor polynomial of its gap.
-
-    ``tau`` s into a flight the gap is ``G > 0`` (mm) and falls, ``Gp = G' < 0`` (mm/s);
-    ``sn, cs`` are the sine and cosine of the phase reached, ``xi`` (mm) the point over the
-    tile, ``room`` (s) the time to the next tile crossing, ``Fp = F'`` (mm/s).  Over ``u``
-    more seconds, with ``g_n`` of ``gap_coefficients`` there (see ``tiny_hop``),
-
-        G(tau + u) = G + Gp u + g_2 u^2/2 + g_3 u^3/6 + g_4 u^4/24
-                     + A sum_{n=5..N} s_n (w u)^n / n! + r(u).
-
-    Accepted only if, up to ``u_max = 2 G / |Gp|`` (twice the tangent line's landing):
-
-    * the particle stays on the tile (``u_max < room``), and ``u_max <= tau``;
-    * G keeps falling: ``G' <= Gp + u_max max(0, g_2 + K3 u_max) = G'_max <= Gp / 2`` (``K3``
-      of ``gap_jerk_bound``), so the contact is the only root and lies before u_max
-      (``G(u_max) <= G + G'_max u_max < 0``);
-    * the remainder moves it by less than eps tau (the safe-step search stops at
-      ``ROOT_STEP_REL`` tau): N (``drive_degree``) puts the drive's remainder in the rate
-      below eps ``|G'_max|`` (the root moves by less than eps u_max / 5), the arc's is below
-      eps ``|G'_max|`` tau / 2.
-
-    Newton from ``G / |Gp|``.  Returns ``(u, xi_c, F'_c, ok)``: time to the contact (s), its
-    coordinate (mm), the vertical velocity relative to the floor there (mm/s); ``ok = False``
-    when a condition fails (the search then goes on with safe steps).
-    """
-    A, w = kp.A, kp.w
-    aw = A * w
-    fail = (0.0, xi, Fp, False)
-    u0 = G / -Gp
-    u_max = 2.0 * u0
-    x = w * u_max
-    if not (x < TAYLOR_MAX_SPAN and u_max < room and u_max <= tau):
-        return fail
-    F2, g2, g3, g4 = gap_coefficients(sn, cs, xi, arc_root(xi, kp), vx, kp)
-    K3 = gap_jerk_bound(vx, kp)
-    slope = -(Gp + u_max * max(0.0, g2 + K3 * u_max))  # |G'| >= slope on [0, u_max]
-    if not slope >= -0.5 * Gp:
-        return fail
-    N = drive_degree(aw, x, EPS * slope)
-    if not (N > 0 and arc_remainder(vx, u_max, kp) <= 0.5 * EPS * slope * tau):
-        return fail
-    t = u0
-    for _ in range(TAYLOR_NEWTON_MAX):
-        P, dP = gap_series(t, G, Gp, g2, g3, g4, sn, cs, A, w, N)
-        step = P / dP
-        t -= step
-        # the error Newton leaves, |P'' / 2 P'| step^2 with |P''| <= |g_2| + K3 t: negligible
-        if step * step * (abs(g2) + K3 * abs(t)) <= TAYLOR_NEWTON_REL * (tau + t) * abs(dP):
-            break
-    else:
-        return fail
-    if not 0.0 < t < u_max:
-        return fail
-    half = 0.5 * kp.d
-    xi_c = min(max(xi + vx * t, -half), half)
-    return t, xi_c, series_rate(t, Fp, F2, sn, cs, A, w, N), True
 
 
 @njit(cache=True, fastmath=FMA)

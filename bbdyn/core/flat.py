@@ -30,7 +30,10 @@ negative ``ROOT_STEP_REL`` times the flight time after the next safe step (the
 contact is then bracketed to that width, and G' there follows from its Taylor
 series to below eps ``|G'|``, so that last evaluation is skipped), when the safe step
 is below ``ROOT_STEP_REL`` times the flight time, or when rounding makes ``G <= 0``.
-All bounds hold up to the rounding of G, G', G'' (a few ulp of their terms).
+Once the gap falls and its Taylor polynomial provably holds the only contact within
+reach, the contact is solved from it by Newton instead (``taylor.taylor_finish``, the
+billiard's finish with no arc terms; ``flat_flight_tol``).  All bounds hold up to the
+rounding of G, G', G'' (a few ulp of their terms).
 Kernels use ``error_model="numpy"``: they never raise; a division by zero gives
 inf or nan, which the statuses report.
 
@@ -69,6 +72,7 @@ from bbdyn.core.status import (
     STICK,
     STUCK_FOREVER,
 )
+from bbdyn.core.taylor import taylor_finish
 from bbdyn.core.tolerances import (
     CHATTER_REL_TOL,
     EPS,
@@ -76,6 +80,7 @@ from bbdyn.core.tolerances import (
     RELEASE_WINDOW_PAD,
     ROOT_MAX_STEPS,
     ROOT_STEP_REL,
+    TAYLOR_MAX_SPAN,
 )
 
 
@@ -145,7 +150,11 @@ def flat_flight_tol(phase, vrel, kp, step_rel):
         Stopping tolerance relative to the flight time; ``ROOT_STEP_REL`` (2 eps)
         in ``flat_flight``.  The iterates do not depend on it: it only decides
         when the convergence from below stops, so a looser tolerance returns an
-        earlier iterate of the same sequence, after fewer evaluations.
+        earlier iterate of the same sequence, after fewer evaluations.  At
+        ``ROOT_STEP_REL`` (and below) a descending flight ends, once provably
+        possible, with ``taylor.taylor_finish`` (Newton on the gap's Taylor
+        polynomial, within eps of the flight time, counted as one evaluation); a
+        looser tolerance keeps to the safe steps.
 
     Returns
     -------
@@ -206,9 +215,15 @@ def flat_flight_tol(phase, vrel, kp, step_rel):
         G, Gp, sn, cn = flat_gap_phase(vrel, g, A, w, s0, c0, tau)
         n_evals += 1
 
+    finish = step_rel <= ROOT_STEP_REL
     for _ in range(ROOT_MAX_STEPS):
         if G <= 0.0 and tau > 0.0:
             return tau, min(Gp, 0.0), OK, n_evals
+        if finish and Gp < 0.0 and w * G < (-0.5 * TAYLOR_MAX_SPAN) * Gp:
+            # the billiard's Taylor finish on the flat gap (xi = vx = 0: no arc terms)
+            u, _, Gp_c, solved = taylor_finish(tau, G, Gp, Gp, sn, cn, 0.0, 0.0, math.inf, kp)
+            if solved:
+                return tau + u, min(Gp_c, 0.0), OK, n_evals + 1
         m = g + aw2 * sn
         step = cubic_safe_step(G, Gp, m + m_pad, M, K)
         if step <= step_rel * tau:

@@ -71,7 +71,7 @@ WEDGE_TOL = 4.0 * EPS
 WEDGE_MAX_REFLECTIONS = 16
 
 #: Contacts from the Taylor polynomial of the gap (``billiard.tiny_hop``, a chattering hop
-#: from its impact; ``billiard.taylor_finish``, the end of a descending flight): tried when
+#: from its impact; ``taylor.taylor_finish``, the end of a descending flight): tried when
 #: the polynomial's span ``w u_max`` (rad; ``u_max`` twice the first guess) is below
 #: TAYLOR_MAX_SPAN, written to the lowest degree (4 to TAYLOR_MAX_DEGREE) whose remainder
 #: in the rate is below eps of it; Newton stops once the error its last step leaves is
