@@ -12,7 +12,10 @@ counts therefore depends on where the sum takes over, which this benchmark varie
   accepted with a looser or tighter budget);
 * other source trees (``--other``), e.g. a worktree of the branch ``route3-drive-shift``,
   whose sum is corrected for the drive to first order and so is accepted earlier at the
-  same budget.
+  same budget;
+* with ``--floor F``: copies of the tree and of the other trees whose classifier does not
+  count the impacts that end a flight shorter than F periods (``features.py`` patched), a
+  count that no longer depends on where the sum takes over as long as it takes over below F.
 
 For every tree and frequency ``bbdyn classify --f F --n N --t T --seed 0 --threads 1``
 (its own numba cache) gives the regime and each attractor's tiny-hop fraction and D.  For
@@ -24,7 +27,8 @@ Usage::
 
     git worktree add ../route3 route3-drive-shift
     python benchmarks/chatter_takeover.py [--tree .] [--scale 0.25 4 64] [--other ../route3]
-        [--f 70 71.4 74.8 78.4 81.6] [--n 20] [--t 20] [--repeats 3] [--json OUT]
+        [--floor 1e-4] [--f 70 71.4 74.8 78.4 81.6] [--n 20] [--t 20] [--repeats 3]
+        [--json OUT]
 """
 
 import argparse
@@ -42,6 +46,15 @@ import kernel_buffers  # noqa: E402  (tree_label)
 
 #: The line of ``bbdyn/core/tolerances.py`` that sets the sum's budget.
 ANCHOR = "CHATTER_REL_TOL = 64.0 * EPS\n"
+#: The line of ``bbdyn/core/features.py`` where a collision's features start, and what
+#: ``--floor`` adds after it.
+FEATURE_ANCHOR = (
+    "    j, phase, vyrel, kind, flight = hit.block, hit.phase, hit.vyrel, hit.kind, hit.flight\n"
+)
+FLOOR = (
+    "    if kind == {impact} and flight < {floor!r}:  # floor: not counted\n"
+    "        return n_ring, run\n"
+)
 F_CLASSIFY = [70.0, 71.4, 74.8, 78.4, 81.6]
 
 
@@ -57,6 +70,23 @@ def scaled_tree(tree: str, scale: float, folder: str) -> str:
     return chatter_oracle.copy_with_patch(tree, os.path.join(folder, f"scale{scale:g}"),
                                           "core/tolerances.py",
                                           lambda source: scaled_source(source, scale))  # fmt: skip
+
+
+def floored_source(source: str, floor: float) -> str:
+    """``features.py``'s source with the impacts after flights shorter than ``floor`` periods
+    left out of the features."""
+    from bbdyn.core.status import IMPACT
+
+    if source.count(FEATURE_ANCHOR) != 1:
+        raise RuntimeError("features.py changed: the collision's first line is not found once")
+    floored = FEATURE_ANCHOR + FLOOR.format(impact=IMPACT, floor=float(floor))
+    return source.replace(FEATURE_ANCHOR, floored)
+
+
+def floored_tree(tree: str, floor: float, folder: str, name: str) -> str:
+    """A copy of ``tree``'s package in ``folder/name`` with the floor; returns its path."""
+    return chatter_oracle.copy_with_patch(tree, os.path.join(folder, name), "core/features.py",
+                                          lambda source: floored_source(source, floor))  # fmt: skip
 
 
 def tree_env(tree: str, cache: str) -> dict:
@@ -103,6 +133,11 @@ def measure(args) -> dict:
         trees = [args.tree, *scaled, *args.other]
         labels = (["as is"] + [f"CHATTER_REL_TOL x {s:g}" for s in args.scale]
                   + [kernel_buffers.tree_label(o) for o in args.other])  # fmt: skip
+        if args.floor is not None:
+            bases = [args.tree, *args.other]
+            trees += [floored_tree(b, args.floor, folder, f"floor{k}") for k, b in enumerate(bases)]
+            labels += [f"{label}, floor {args.floor:g} periods"
+                       for label in ["as is", *labels[1 + len(args.scale):]]]  # fmt: skip
         jobs = [(i, f) for i in range(len(trees)) for f in args.f]
         for i in range(len(trees)):
             os.makedirs(os.path.join(folder, f"cache{i}"))
@@ -115,7 +150,7 @@ def measure(args) -> dict:
     variants = [{"label": label, "runs": [r for (i, _), r in pairs if i == k]}
                 for k, label in enumerate(labels)]  # fmt: skip
     return {"tree": kernel_buffers.tree_label(args.tree), "n": args.n, "t": args.t,
-            "seed": 0, "variants": variants, "timing": timing,
+            "seed": 0, "floor": args.floor, "variants": variants, "timing": timing,
             "timed": [kernel_buffers.tree_label(o) for o in args.other]}  # fmt: skip
 
 
@@ -156,6 +191,9 @@ def main() -> None:
     parser.add_argument("--f", type=float, nargs="+", default=F_CLASSIFY, help="Hz")
     parser.add_argument("--n", type=int, default=20, help="particles")
     parser.add_argument("--t", type=float, default=20.0, help="simulated time (s)")
+    parser.add_argument("--floor", type=float, default=None,
+                        help="also classify with impacts after flights below this (periods) "
+                        "left out")  # fmt: skip
     parser.add_argument("--workers", type=int, default=2, help="classify runs at once")
     args = parser.parse_args()
     report = measure(args)
