@@ -141,6 +141,23 @@ def doc_table(report: dict, points: list[dict]) -> str:
     return band_table(points, predict(report, points), labels)
 
 
+def add_prediction(report: dict, scan: str, predictor) -> list[dict]:
+    """Store in ``report`` the scan file ``scan`` and ``predictor(report, its points)`` as
+    ``predicted_cpu_s``; returns the points."""
+    with open(scan) as fh:
+        points = json.load(fh)["points"]
+    report["scan"] = scan
+    report["predicted_cpu_s"] = predictor(report, points)
+    return points
+
+
+def save_report(report: dict, path: str | None) -> None:
+    """Write ``report`` as JSON to ``path`` (nothing if None)."""
+    if path:
+        with open(path, "w") as fh:
+            json.dump(report, fh, indent=1)
+
+
 def add_common_arguments(parser: argparse.ArgumentParser) -> None:
     """``--tree``, ``--repeats``, ``--scan`` and ``--json`` (shared with chatter_takeover.py)."""
     parser.add_argument("--tree", default=".", help="source tree (default: .)")
@@ -159,17 +176,12 @@ def main() -> None:
     parser.add_argument("--t", type=float, default=200.0, help="simulated time (s)")
     args = parser.parse_args()
     report = measure(args)
-    with open(args.scan) as fh:
-        points = json.load(fh)["points"]
-    report["scan"] = args.scan
-    report["predicted_cpu_s"] = predict(report, points)
+    points = add_prediction(report, args.scan, predict)
     for row in report["rows"]:
         ratios = "  ".join(f"{r:5.2f}" for r in row["ratio"])
         print(f"f = {row['f']:5.1f} Hz: {row['cpu_s']:.3f} CPU-s, unpatched / oracle: {ratios}")
     print(doc_table(report, points))
-    if args.json:
-        with open(args.json, "w") as fh:
-            json.dump(report, fh, indent=1)
+    save_report(report, args.json)
 
 
 if __name__ == "__main__":

@@ -199,14 +199,9 @@ def main() -> None:
     report = measure(args)
     print(doc_table(report))
     if report["timing"]:
-        with open(args.scan) as fh:
-            points = json.load(fh)["points"]
-        report["scan"] = args.scan
-        report["predicted_cpu_s"] = predicted_scan(report, points)
+        points = chatter_oracle.add_prediction(report, args.scan, predicted_scan)
         print(scan_table(report, points))
-    if args.json:
-        with open(args.json, "w") as fh:
-            json.dump(report, fh, indent=1)
+    chatter_oracle.save_report(report, args.json)
 
 
 if __name__ == "__main__":
