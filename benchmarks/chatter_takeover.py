@@ -100,11 +100,11 @@ def tree_env(tree: str, cache: str) -> dict:
     return env
 
 
-def classify(tree: str, cache: str, f: float, n: int, t: float) -> dict:
-    """``bbdyn classify`` at ``f`` on ``tree`` (numba cache and working directory ``cache``):
-    regime and, per attractor, its share of the particles, character, tiny-hop fraction,
-    collision rate and D."""
-    env = tree_env(tree, cache)
+def classify(env: dict, f: float, n: int, t: float) -> dict:
+    """``bbdyn classify`` at ``f`` in the environment ``env`` of ``tree_env`` (working
+    directory its numba cache): regime and, per attractor, its share of the particles,
+    character, tiny-hop fraction, collision rate and D."""
+    cache = env["NUMBA_CACHE_DIR"]
     cmd = [sys.executable, "-m", "bbdyn", "classify", "--f", str(f), "--n", str(n),
            "--t", str(t), "--seed", "0", "--threads", "1", "--json"]  # fmt: skip
     # run outside any source tree: ``python -m`` puts the working directory first on the path
@@ -139,11 +139,12 @@ def measure(args) -> dict:
             labels += [f"{label}, floor {args.floor:g} periods"
                        for label in ["as is", *labels[1 + len(args.scale):]]]  # fmt: skip
         jobs = [(i, f) for i in range(len(trees)) for f in args.f]
-        for i in range(len(trees)):
+        envs = []
+        for i, tree in enumerate(trees):
             os.makedirs(os.path.join(folder, f"cache{i}"))
+            envs.append(tree_env(tree, os.path.join(folder, f"cache{i}")))
         with ThreadPoolExecutor(max_workers=args.workers) as pool:
-            runs = list(pool.map(lambda job: classify(trees[job[0]],
-                                 os.path.join(folder, f"cache{job[0]}"), job[1], args.n, args.t),
+            runs = list(pool.map(lambda job: classify(envs[job[0]], job[1], args.n, args.t),
                                  jobs))  # fmt: skip
         timing = time_trees([args.tree, *args.other], args, folder) if args.other else []
     pairs = list(zip(jobs, runs, strict=True))
@@ -154,7 +155,7 @@ def measure(args) -> dict:
             "timed": [kernel_buffers.tree_label(o) for o in args.other]}  # fmt: skip
 
 
-def creeping_share(run: dict) -> float:
+def main_tiny_fraction(run: dict) -> float:
     """Tiny-hop fraction of the attractor holding most particles."""
     return max(run["attractors"], key=lambda a: a["fraction"])["tiny_fraction"]
 
@@ -165,7 +166,7 @@ def doc_table(report: dict) -> str:
     head = "| variant | " + " | ".join(f"{f:g} Hz" for f in freqs) + " |"
     lines = [head, "|---|" + "---:|" * len(freqs)]
     for v in report["variants"]:
-        cells = " | ".join(f"{r['regime']} ({creeping_share(r):.3f})" for r in v["runs"])
+        cells = " | ".join(f"{r['regime']} ({main_tiny_fraction(r):.3f})" for r in v["runs"])
         lines.append(f"| {v['label']} | {cells} |")
     return "\n".join(lines)
 

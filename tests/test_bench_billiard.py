@@ -2,7 +2,6 @@
 
 import json
 import math
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -157,12 +156,9 @@ def test_bench_billiard_cli_json(tmp_path, capsys):
 def test_the_docs_numbers_are_those_of_the_committed_run():
     """docs/benchmarks.md shows the table of docs/bench/billiard_7c21b69.json and states its
     numbers in the findings below it, and those of the previous run (bd1e3d6) it cites."""
-    from bbdyn.results import load_result
+    from committed_runs import bench_runs
 
-    root = Path(__file__).resolve().parents[1]
-    result = load_result(root / "docs" / "bench" / "billiard_7c21b69.json")
-    before = load_result(root / "docs" / "bench" / "billiard_bd1e3d6.json")
-    raw = (root / "docs" / "benchmarks.md").read_text()
+    result, before, raw = bench_runs("billiard_7c21b69", "billiard_bd1e3d6")
     assert bench.table(result) in raw
     text = " ".join(raw.split())
     rows, prof = result.meta["rows"], result.meta["profile"]

@@ -271,15 +271,12 @@ def test_the_docs_numbers_are_those_of_the_committed_run():
     """docs/benchmarks.md shows the table of docs/bench/flat_103aedc.json and states its
     numbers in the findings below it (and those of the run before the Taylor finish)."""
     import math
-    from pathlib import Path
 
-    from bbdyn.results import load_result
+    from committed_runs import bench_runs
+
     from bbdyn.scenes import b2_flat as bench
 
-    root = Path(__file__).resolve().parents[1]
-    r = load_result(root / "docs" / "bench" / "flat_103aedc.json")
-    before = load_result(root / "docs" / "bench" / "flat_d917dea.json")
-    raw = (root / "docs" / "benchmarks.md").read_text()
+    r, before, raw = bench_runs("flat_103aedc", "flat_d917dea")
     assert bench.table(r) in raw
     text = " ".join(raw.split())
     rows = {(x["method"], x["setting"]): x for x in r.meta["rows"]}

@@ -35,7 +35,7 @@ def test_the_main_attractor_gives_the_share():
     m = _module()
     run = {"attractors": [{"fraction": 0.2, "tiny_fraction": 0.9},
                           {"fraction": 0.7, "tiny_fraction": 0.4}]}  # fmt: skip
-    assert m.creeping_share(run) == 0.4
+    assert m.main_tiny_fraction(run) == 0.4
 
 
 def test_the_docs_show_the_committed_report():
@@ -60,7 +60,7 @@ def test_the_classification_page_states_what_was_measured():
     report = _report()
     as_is, *others = [v for v in report["variants"] if "floor" not in v["label"]]
     assert as_is["label"] == "as is"
-    share = {r["f"]: _module().creeping_share(r) for r in as_is["runs"]}
+    share = {r["f"]: _module().main_tiny_fraction(r) for r in as_is["runs"]}
     flat = _flat("classification.md")
     assert f"{share[70.0]:.3f} at 70 Hz" in flat and f"{share[78.4]:.3f} at 78.4 Hz" in flat
     changed = {r["f"] for v in others for r, r0 in zip(v["runs"], as_is["runs"], strict=True)
@@ -73,7 +73,7 @@ def test_the_classification_page_states_what_was_measured():
     assert f"at {len(scaled)} of them already with the budget alone scaled" in flat
     # the sums taking over much earlier (budget x 64, route 3) count fewer tiny hops everywhere
     m = _module()
-    shares = {v["label"]: [m.creeping_share(r) for r in v["runs"]] for v in report["variants"]}
+    shares = {v["label"]: [m.main_tiny_fraction(r) for r in v["runs"]] for v in report["variants"]}
     for label in ("CHATTER_REL_TOL x 64", report["timed"][0]):
         assert all(a < b for a, b in zip(shares[label], shares["as is"], strict=True)), label
     assert "counts fewer tiny hops at every frequency" in flat
@@ -88,7 +88,7 @@ def test_with_a_floor_the_kernels_agree():
     base, route3 = (v for v in report["variants"] if "floor" in v["label"])
     assert base["label"] == f"as is, floor {floor:g} periods"
     assert route3["label"] == f"{report['timed'][0]}, floor {floor:g} periods"
-    shares = [[m.creeping_share(r) for r in v["runs"]] for v in (base, route3)]
+    shares = [[m.main_tiny_fraction(r) for r in v["runs"]] for v in (base, route3)]
     regimes = [[r["regime"] for r in v["runs"]] for v in (base, route3)]
     assert regimes[0] == regimes[1]
     diff = max(abs(a - b) for a, b in zip(*shares, strict=True))
