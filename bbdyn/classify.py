@@ -97,6 +97,12 @@ class Thresholds:
     hist_width : float
         Flight-time histogram bin (periods) (0.02); flights beyond 10 periods share
         the last bin.
+    hop_floor : float
+        An impact after a flight shorter than ``hop_floor`` periods is not counted as a
+        collision (1e-4; 0 counts every impact): it is in the tail of a chattering
+        sequence, of which the kernel resolves a number of bounces set by a numerical
+        tolerance before summing the rest in closed form (``core.features``;
+        docs/classification.md, "Rules").
 
     Decision (applied to stored features):
 
@@ -139,6 +145,7 @@ class Thresholds:
     kmax: int = 8
     pmax: int = 32
     hist_width: float = 0.02
+    hop_floor: float = 1e-4
     period_tol: float = 1e-6
     z: float = 4.0
     abs_tol: float = 0.01
@@ -153,6 +160,8 @@ class Thresholds:
 
     def __post_init__(self) -> None:
         for name, value in asdict(self).items():
+            if name == "hop_floor" and value == 0:
+                continue  # 0: every impact is a collision
             if not (math.isfinite(value) and value > 0):
                 raise ValueError(f"{name} must be a finite number > 0, got {value}")
         for name in ("kmax", "pmax", "min_members"):
@@ -284,7 +293,9 @@ def trajectory_features(
     s_periods, s_phase = periods_phase(sample_times, params.f)
     end = np.array([v[0] for v in periods_phase(np.array([t]), params.f)])
     times = RunTimes(end[0], end[1], p0, L, int(blocks), s_periods, s_phase)
-    feature_th = core.FeatureThresholds(th.tiny, th.k_tol, int(th.kmax), th.hist_width)
+    feature_th = core.FeatureThresholds(
+        th.tiny, th.k_tol, int(th.kmax), th.hist_width, th.hop_floor
+    )
     buffers = core.FeatureOut(**out)
 
     def advance(budget):
@@ -489,9 +500,10 @@ def classify_features(feat: FeatureResult, thresholds: Thresholds | None = None)
     errors over its trajectories (the keys of ``bbdyn simulate``; units in ``UNITS``).
     The measurement fields of ``thresholds`` must be those the features were run with.
     """
-    th = Thresholds(**feat.meta["thresholds"]) if thresholds is None else thresholds
-    run_th = feat.meta["thresholds"]
-    for name in ("tiny", "k_tol", "kmax", "pmax", "hist_width"):
+    # features stored before hop_floor existed counted every impact
+    run_th = {"hop_floor": 0.0, **feat.meta["thresholds"]}
+    th = Thresholds(**run_th) if thresholds is None else thresholds
+    for name in ("tiny", "k_tol", "kmax", "pmax", "hist_width", "hop_floor"):
         if getattr(th, name) != run_th[name]:
             raise ValueError(
                 f"thresholds.{name} = {getattr(th, name)} differs from the run's {run_th[name]}: "

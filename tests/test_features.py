@@ -42,6 +42,7 @@ def _from_record(params, rec, th, p0, p1, nb):
     L = (p1 - p0) / nb
     hist = np.zeros(int(round(10.0 / th.hist_width)) + 1)
     out = dict(coll=np.zeros(nb), tiny=np.zeros(nb), jumps=np.zeros(nb), locked=np.zeros(nb))
+    out["floored"] = 0
     cos = sin = 0.0
     seq = []
     dep = 0.0  # the initial condition departs at t = 0 (in periods)
@@ -58,8 +59,11 @@ def _from_record(params, rec, th, p0, p1, nb):
         if not p0 <= t < p1:
             continue
         j = int((periods - p0) // L)
-        out["coll"][j] += 1
         out["jumps"][j] += jumped
+        if kind == IMPACT and flight < th.hop_floor:
+            out["floored"] += 1  # a chattering sequence's tail: not a collision
+            continue
+        out["coll"][j] += 1
         k = math.floor(flight + 0.5)
         out["locked"][j] += 1 <= k <= th.kmax and abs(flight - k) <= th.k_tol
         out["tiny"][j] += flight < th.tiny
@@ -81,12 +85,18 @@ def _from_record(params, rec, th, p0, p1, nb):
 
 
 def test_record_is_complete_and_covers_the_hard_cases(runs):
-    """Every collision recorded, and the run has sticks, tiny hops, locked flights, jumps."""
-    _, feat, ens = runs
+    """Every collision recorded, and the run has sticks, tiny hops, locked flights, jumps,
+    and impacts below the hop floor."""
+    params, feat, ens = runs
     assert np.all(ens["record_n"] <= ens["record"].shape[1])
     assert np.any(ens["record"][..., 6] == STICK)
     b = feat["blocks"].sum(axis=(0, 1))
     assert min(b[core.BF_TINY], b[core.BF_LOCKED], b[core.BF_JUMPS]) > 0
+    th = Thresholds(**feat.meta["thresholds"])
+    p0, p1 = feat.meta["window_periods"]
+    records = [ens["record"][i, : ens["record_n"][i]] for i in range(N)]
+    floored = sum(_from_record(params, r, th, p0, p1, BLOCKS)[0]["floored"] for r in records)
+    assert floored > 0  # chattering tails below hop_floor occur and are left out
 
 
 def test_counts_and_sequences_equal_the_record(runs):
@@ -115,8 +125,14 @@ def test_block_integrals_sum_to_the_ensemble_integrals(runs):
     for name, col in (("E_x", core.BF_EX), ("E_y", core.BF_EY), ("E_pot", core.BF_POT)):
         np.testing.assert_allclose(b[:, col] / window_s, ens[name], rtol=OBS_INTEGRAL_REL_TOL)
     np.testing.assert_allclose(b[:, core.BF_STUCK] / window_s, ens["stuck_fraction"], atol=1e-12)
-    np.testing.assert_array_equal(b[:, core.BF_COLL], ens["collisions"])
     np.testing.assert_array_equal(b[:, core.BF_JUMPS], ens["jumps"])
+    # the ensemble counts every impact; the features leave out the chattering tails
+    th = Thresholds(**feat.meta["thresholds"])
+    p0, p1 = feat.meta["window_periods"]
+    for i in range(N):
+        rec = ens["record"][i, : ens["record_n"][i]]
+        floored = _from_record(params, rec, th, p0, p1, BLOCKS)[0]["floored"]
+        assert b[i, core.BF_COLL] + floored == ens["collisions"][i]
 
 
 def test_displacement_samples_equal_the_ensemble_displacements(runs):
@@ -142,7 +158,7 @@ def test_period_1_across_phase_zero(other_phase, periodic):
     the phase difference is taken modulo 2 pi.  Control: alternating with pi is not."""
     params = Params(f=60.0)
     th = Thresholds()
-    kernel_th = core.FeatureThresholds(th.tiny, th.k_tol, th.kmax, th.hist_width)
+    kernel_th = core.FeatureThresholds(th.tiny, th.k_tol, th.kmax, th.hist_width, th.hop_floor)
     out = core.FeatureOut(
         displacement=np.zeros((1, 0)),
         blocks=np.zeros((1, 1, core.BF_WIDTH)),
@@ -166,3 +182,52 @@ def test_period_1_across_phase_zero(other_phase, periodic):
     assert mism[0] == pytest.approx(expected, rel=1e-6)
     assert mism[1] == pytest.approx(0.0, abs=1e-15)  # lag 2 compares equal phases
     assert (mism[0] <= th.period_tol) == periodic
+
+
+def _chatter_features(depth, hop_floor):
+    """Features of a resonant flight followed by a chattering sequence whose first ``depth``
+    bounces are resolved one by one (flights 0.05 * 0.5^k periods) and the rest summed into
+    the STICK, as the kernel does wherever its closed-form sum takes over."""
+    params = Params(f=60.0)
+    th = Thresholds(hop_floor=hop_floor)
+    kernel_th = core.FeatureThresholds(th.tiny, th.k_tol, th.kmax, th.hist_width, th.hop_floor)
+    out = core.FeatureOut(
+        displacement=np.zeros((1, 0)),
+        blocks=np.zeros((1, 1, core.BF_WIDTH)),
+        counts=np.zeros((1, 0), dtype=np.int64),
+        hist=np.zeros((1, int(round(10.0 / th.hist_width)) + 1)),
+        kcount=np.zeros((1, th.kmax + 1)),
+        glob=np.zeros((1, core.G_WIDTH)),
+        mismatch=np.zeros((1, th.pmax)),
+        status=np.zeros(1, dtype=np.int64),
+    )
+    ring, kp = np.zeros((th.pmax, 3)), params.kernel()
+    n_ring = run = 0
+    flights = [1.0] + [0.05 * 0.5**k for k in range(depth)]
+    kinds = [IMPACT] * len(flights) + [STICK]
+    flights.append(0.05 * 0.5**depth / (1 - 0.5))  # the sum of the rest
+    t = 0.0
+    for flight, kind in zip(flights, kinds, strict=True):
+        t += flight
+        hit = core.Collision(0, TWO_PI * (t % 1.0), 1.0, kind, flight, False)
+        n_ring, run = core.feature_collision(out, 0, ring, n_ring, run, hit, kernel_th, kp)
+    core.feature_finish(out.glob[0], out.mismatch[0], n_ring, run)
+    return out
+
+
+def test_chattering_tail_below_the_floor_is_not_counted():
+    """Where the closed-form sum takes over below the hop floor does not change the counts:
+    resolving 12 or 40 bounces of the same sequence (the 12th flight is 2.4e-5 periods, below
+    the default floor 1e-4) gives the same collisions, tiny hops, histogram and runs.  Control:
+    with no floor the deeper resolution counts 28 more collisions."""
+    default = Thresholds().hop_floor
+    a, b = _chatter_features(12, default), _chatter_features(40, default)
+    for key in ("blocks", "hist", "kcount"):
+        np.testing.assert_array_equal(getattr(a, key), getattr(b, key))
+    for col in (core.G_RUNS, core.G_RUNMAX, core.G_COS, core.G_SIN):
+        assert a.glob[0, col] == b.glob[0, col]
+    # the flight times summed differ only by the floored flights' time (< 2 * 1e-4 periods)
+    assert abs(a.glob[0, core.G_TF] - b.glob[0, core.G_TF]) < 2 * default
+    assert a.blocks[0, 0, core.BF_COLL] == 1 + 9 + 1  # resonant, 9 hops above 1e-4, the STICK
+    a0, b0 = _chatter_features(12, 0.0), _chatter_features(40, 0.0)
+    assert b0.blocks[0, 0, core.BF_COLL] - a0.blocks[0, 0, core.BF_COLL] == 28

@@ -33,6 +33,12 @@ Per particle, over the window:
 
 A flight is *locked* to k (1 <= k <= kmax) when ``|T_flight / T - k| <= k_tol``
 and a *tiny hop* when ``T_flight / T < tiny``.
+
+An impact after a flight shorter than ``hop_floor`` periods is not a collision for the
+features: it belongs to the tail of a chattering sequence, whose bounces are infinitely many
+and of which the kernel computes a number fixed by a numerical choice (``CHATTER_REL_TOL``)
+before its closed-form sum takes over.  Only a trap change there is counted (``BF_JUMPS``).
+The sequence's end (the STICK) is a collision, and the next flight starts at the impact.
 """
 
 import math
@@ -42,6 +48,7 @@ import numpy as np
 from numba import njit
 
 from bbdyn.core.plate import TWO_PI
+from bbdyn.core.status import IMPACT
 from bbdyn.core.tolerances import FMA
 
 #: Columns of ``blocks`` (the first four are those of ``core.ensemble.ACC_*``).
@@ -60,6 +67,7 @@ class FeatureThresholds(NamedTuple):
     k_tol: float  # a flight is locked to k when |T_flight / T - k| <= k_tol
     kmax: int  # largest locking number counted
     hist_width: float  # width (periods) of the flight-time histogram bins
+    hop_floor: float  # an impact after a flight shorter than hop_floor periods is not counted
 
 
 class FeatureOut(NamedTuple):
@@ -128,9 +136,11 @@ def feature_collision(out, i, ring, n_ring, run, hit, th, kp):
     j, phase, vyrel, kind, flight = hit.block, hit.phase, hit.vyrel, hit.kind, hit.flight
     nbins = hist.shape[0]
     pmax = mism.shape[0]
-    blocks[j, BF_COLL] += 1.0
     if hit.jumped:
         blocks[j, BF_JUMPS] += 1.0
+    if kind == IMPACT and flight < th.hop_floor:
+        return n_ring, run  # a chattering sequence's tail: not a collision (module docstring)
+    blocks[j, BF_COLL] += 1.0
     glob[G_COS] += math.cos(phase)
     glob[G_SIN] += math.sin(phase)
     glob[G_TF] += flight
