@@ -160,9 +160,10 @@ class Thresholds:
 
     def __post_init__(self) -> None:
         for name, value in asdict(self).items():
-            if name == "hop_floor" and value == 0:
-                continue  # 0: every impact is a collision
-            if not (math.isfinite(value) and value > 0):
+            if name == "hop_floor":  # 0: every impact is a collision
+                if not (math.isfinite(value) and value >= 0):
+                    raise ValueError(f"hop_floor must be a finite number >= 0, got {value}")
+            elif not (math.isfinite(value) and value > 0):
                 raise ValueError(f"{name} must be a finite number > 0, got {value}")
         for name in ("kmax", "pmax", "min_members"):
             if int(getattr(self, name)) != getattr(self, name):

@@ -2,32 +2,28 @@
 
 The event kernel computes the first bounces of a chattering sequence one by one and sums
 the rest in closed form (``chatter_sum`` in ``bbdyn/core/billiard.py``) once the sum's
-neglected terms are below ``CHATTER_REL_TOL`` of a period.  Each bounce computed is a
-collision; the classifier calls an attractor *creeping* (regime c) when at least
-``creep_min`` = 0.5 of its collisions are tiny hops.  How many chattering bounces a run
-counts therefore depends on where the sum takes over, which this benchmark varies:
+neglected terms are below ``CHATTER_REL_TOL`` of a period.  Each bounce computed is an
+impact; the classifier calls an attractor *creeping* (regime c) when at least ``creep_min``
+= 0.5 of its collisions are tiny hops, and leaves out of its collisions the impacts after
+flights shorter than ``hop_floor`` periods (``bbdyn classify --hop-floor``; 0 counts every
+impact).  This benchmark varies where the sum takes over:
 
 * the tree as it is (``--tree``);
 * copies of it with ``CHATTER_REL_TOL`` multiplied by each ``--scale`` (the same sum,
   accepted with a looser or tighter budget);
-* other source trees (``--other``), e.g. a worktree of the branch ``route3-drive-shift``,
-  whose sum is corrected for the drive to first order and so is accepted earlier at the
-  same budget;
-* with ``--floor F``: copies of the tree and of the other trees whose classifier does not
-  count the impacts that end a flight shorter than F periods (``features.py`` patched), a
-  count that no longer depends on where the sum takes over as long as it takes over below F.
+* other source trees (``--other``), e.g. a worktree of another kernel;
 
-For every tree and frequency ``bbdyn classify --f F --n N --t T --seed 0 --threads 1``
-(its own numba cache) gives the regime and each attractor's tiny-hop fraction and D.  For
-the ``--other`` trees the scan's runs are also timed against the tree (the workers of
+and classifies each with every ``--hop-floor``.  For every tree, floor and frequency
+``bbdyn classify --f F --n N --t T --seed 0 --threads 1 --hop-floor H`` (its own numba cache)
+gives the regime and each attractor's tiny-hop fraction, collision rate and D.  For the
+``--other`` trees the scan's runs are also timed against the tree (the workers of
 ``kernel_buffers.py``, medians of ``--repeats``), and the ratios applied to a measured full
 scan as in ``chatter_oracle.py``.
 
 Usage::
 
-    git worktree add ../route3 route3-drive-shift
-    python benchmarks/chatter_takeover.py [--tree .] [--scale 0.25 4 64] [--other ../route3]
-        [--floor 1e-4] [--f 70 71.4 74.8 78.4 81.6] [--n 20] [--t 20] [--repeats 3]
+    python benchmarks/chatter_takeover.py [--tree .] [--scale 0.25 4 64] [--other TREE ...]
+        [--hop-floor 1e-4 0] [--f 70 71.4 74.8 78.4 81.6] [--n 20] [--t 20] [--repeats 3]
         [--json OUT]
 """
 
@@ -46,15 +42,6 @@ import kernel_buffers  # noqa: E402  (tree_label)
 
 #: The line of ``bbdyn/core/tolerances.py`` that sets the sum's budget.
 ANCHOR = "CHATTER_REL_TOL = 64.0 * EPS\n"
-#: The line of ``bbdyn/core/features.py`` where a collision's features start, and what
-#: ``--floor`` adds after it.
-FEATURE_ANCHOR = (
-    "    j, phase, vyrel, kind, flight = hit.block, hit.phase, hit.vyrel, hit.kind, hit.flight\n"
-)
-FLOOR = (
-    "    if kind == {impact} and flight < {floor!r}:  # floor: not counted\n"
-    "        return n_ring, run\n"
-)
 F_CLASSIFY = [70.0, 71.4, 74.8, 78.4, 81.6]
 
 
@@ -72,23 +59,6 @@ def scaled_tree(tree: str, scale: float, folder: str) -> str:
                                           lambda source: scaled_source(source, scale))  # fmt: skip
 
 
-def floored_source(source: str, floor: float) -> str:
-    """``features.py``'s source with the impacts after flights shorter than ``floor`` periods
-    left out of the features."""
-    from bbdyn.core.status import IMPACT
-
-    if source.count(FEATURE_ANCHOR) != 1:
-        raise RuntimeError("features.py changed: the collision's first line is not found once")
-    floored = FEATURE_ANCHOR + FLOOR.format(impact=IMPACT, floor=float(floor))
-    return source.replace(FEATURE_ANCHOR, floored)
-
-
-def floored_tree(tree: str, floor: float, folder: str, name: str) -> str:
-    """A copy of ``tree``'s package in ``folder/name`` with the floor; returns its path."""
-    return chatter_oracle.copy_with_patch(tree, os.path.join(folder, name), "core/features.py",
-                                          lambda source: floored_source(source, floor))  # fmt: skip
-
-
 def tree_env(tree: str, cache: str) -> dict:
     """Environment of a run on ``tree`` with the numba cache ``cache``; checks that bbdyn is
     imported from ``tree`` when run with ``cache`` as the working directory."""
@@ -100,13 +70,14 @@ def tree_env(tree: str, cache: str) -> dict:
     return env
 
 
-def classify(env: dict, f: float, n: int, t: float) -> dict:
-    """``bbdyn classify`` at ``f`` in the environment ``env`` of ``tree_env`` (working
-    directory its numba cache): regime and, per attractor, its share of the particles,
-    character, tiny-hop fraction, collision rate and D."""
+def classify(env: dict, f: float, n: int, t: float, hop_floor: float) -> dict:
+    """``bbdyn classify`` at ``f`` with ``hop_floor`` (periods) in the environment ``env`` of
+    ``tree_env`` (working directory its numba cache): regime and, per attractor, its share of
+    the particles, character, tiny-hop fraction, collision rate and D."""
     cache = env["NUMBA_CACHE_DIR"]
     cmd = [sys.executable, "-m", "bbdyn", "classify", "--f", str(f), "--n", str(n),
-           "--t", str(t), "--seed", "0", "--threads", "1", "--json"]  # fmt: skip
+           "--t", str(t), "--seed", "0", "--threads", "1", "--hop-floor", repr(hop_floor),
+           "--json"]  # fmt: skip
     # run outside any source tree: ``python -m`` puts the working directory first on the path
     out = subprocess.run(cmd, env=env, cwd=cache, capture_output=True, text=True, check=True)
     res = json.loads(out.stdout)
@@ -127,31 +98,29 @@ def time_trees(trees: list[str], args, folder: str) -> list[dict]:
 
 
 def measure(args) -> dict:
-    """Classification on every tree, timing of the ``--other`` trees against the tree."""
+    """Classification on every tree with every hop floor, timing of the ``--other`` trees
+    against the tree."""
     with tempfile.TemporaryDirectory() as folder:
         scaled = [scaled_tree(args.tree, s, folder) for s in args.scale]
         trees = [args.tree, *scaled, *args.other]
-        labels = (["as is"] + [f"CHATTER_REL_TOL x {s:g}" for s in args.scale]
-                  + [kernel_buffers.tree_label(o) for o in args.other])  # fmt: skip
-        if args.floor is not None:
-            bases = [args.tree, *args.other]
-            trees += [floored_tree(b, args.floor, folder, f"floor{k}") for k, b in enumerate(bases)]
-            labels += [f"{label}, floor {args.floor:g} periods"
-                       for label in ["as is", *labels[1 + len(args.scale):]]]  # fmt: skip
-        jobs = [(i, f) for i in range(len(trees)) for f in args.f]
+        names = (["as is"] + [f"CHATTER_REL_TOL x {s:g}" for s in args.scale]
+                 + [kernel_buffers.tree_label(o) for o in args.other])  # fmt: skip
         envs = []
         for i, tree in enumerate(trees):
             os.makedirs(os.path.join(folder, f"cache{i}"))
             envs.append(tree_env(tree, os.path.join(folder, f"cache{i}")))
+        floors = args.hop_floor
+        jobs = [(i, h, f) for h in floors for i in range(len(trees)) for f in args.f]
         with ThreadPoolExecutor(max_workers=args.workers) as pool:
-            runs = list(pool.map(lambda job: classify(envs[job[0]], job[1], args.n, args.t),
-                                 jobs))  # fmt: skip
+            runs = list(pool.map(lambda job: classify(envs[job[0]], job[2], args.n, args.t,
+                                                      job[1]), jobs))  # fmt: skip
         timing = time_trees([args.tree, *args.other], args, folder) if args.other else []
-    pairs = list(zip(jobs, runs, strict=True))
-    variants = [{"label": label, "runs": [r for (i, _), r in pairs if i == k]}
-                for k, label in enumerate(labels)]  # fmt: skip
+    variants = [{"label": f"{name}, hop_floor {h:g}", "tree": name, "hop_floor": h,
+                 "runs": [r for (k, hk, _), r in zip(jobs, runs, strict=True)
+                          if k == i and hk == h]}
+                for h in floors for i, name in enumerate(names)]  # fmt: skip
     return {"tree": kernel_buffers.tree_label(args.tree), "n": args.n, "t": args.t,
-            "seed": 0, "floor": args.floor, "variants": variants, "timing": timing,
+            "seed": 0, "hop_floors": floors, "variants": variants, "timing": timing,
             "timed": [kernel_buffers.tree_label(o) for o in args.other]}  # fmt: skip
 
 
@@ -192,9 +161,8 @@ def main() -> None:
     parser.add_argument("--f", type=float, nargs="+", default=F_CLASSIFY, help="Hz")
     parser.add_argument("--n", type=int, default=20, help="particles")
     parser.add_argument("--t", type=float, default=20.0, help="simulated time (s)")
-    parser.add_argument("--floor", type=float, default=None,
-                        help="also classify with impacts after flights below this (periods) "
-                        "left out")  # fmt: skip
+    parser.add_argument("--hop-floor", type=float, nargs="+", default=[1e-4, 0.0],
+                        help="classify with each of these hop floors (periods)")  # fmt: skip
     parser.add_argument("--workers", type=int, default=2, help="classify runs at once")
     args = parser.parse_args()
     report = measure(args)

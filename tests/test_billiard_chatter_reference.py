@@ -148,3 +148,12 @@ def test_second_order_of_the_drive_is_within_the_bound(alpha):
     for r, q in [(x, x), (-x, x), (x, -x), (-x, -x)]:
         bound = (CHATTER_SECOND_RR * r * r + CHATTER_SECOND_Q * abs(q)) * tau_inf**3
         assert abs(float(rest(r, q))) <= bound
+
+
+def test_the_docs_state_the_kernel_s_bounds():
+    """docs/billiard.md states the second-order bounds the kernel uses."""
+    from pathlib import Path
+
+    text = (Path(__file__).resolve().parents[1] / "docs" / "billiard.md").read_text()
+    flat = " ".join(text.split())
+    assert f"`({CHATTER_SECOND_RR:g} (r / g_n)^2 + {CHATTER_SECOND_Q:g} q / g_n) tau_inf^3`" in flat

@@ -110,10 +110,13 @@ def test_reclassify_with_other_thresholds_needs_no_run_but_keeps_measurement():
     assert strict.summary["regime"] == "other"
     with pytest.raises(ValueError, match="tiny"):
         classify_features(feat, Thresholds(tiny=0.2))
+    with pytest.raises(ValueError, match="hop_floor"):
+        classify_features(feat, Thresholds(hop_floor=0.0))
 
 
 @pytest.mark.parametrize(
-    ("field", "value"), [("z", 0.0), ("kmax", 2.5), ("k_tol", 0.5), ("abs_tol", math.nan)]
+    ("field", "value"),
+    [("z", 0.0), ("kmax", 2.5), ("k_tol", 0.5), ("abs_tol", math.nan), ("hop_floor", -1e-4)],
 )
 def test_thresholds_are_validated(field, value):
     with pytest.raises(ValueError, match=field):
@@ -237,3 +240,19 @@ def test_attractor_D_equals_simulate_D_on_the_same_ensemble(capsys):
     assert att["D_windows"] == s["D_windows"]
     for name in ("E", "E_x", "E_y", "E_pot"):
         assert abs(att[name] - s[name]) <= math.hypot(att[name + "_se"], s[name + "_se"])
+
+
+def test_classify_command_hop_floor(capsys):
+    """At 70 Hz particles chatter: counting every impact (--hop-floor 0) counts more
+    collisions, and more of them tiny hops, than the default floor; the same runs otherwise."""
+    common = ["classify", "--f", "70", "--n", "6", "--t", "4", "--json"]
+    runs = []
+    for extra in ([], ["--hop-floor", "0"]):
+        assert main(common + extra) == 0
+        out = json.loads(capsys.readouterr().out)
+        runs.append((out["thresholds"]["hop_floor"], out["attractors"][0], out))
+    (floor, a, out_a), (zero, b, out_b) = runs
+    assert floor == Thresholds().hop_floor and zero == 0.0
+    assert b["collision_rate"] > a["collision_rate"] and b["tiny_fraction"] > a["tiny_fraction"]
+    for key in ("D", "E", "E_x", "stuck_fraction"):  # the same trajectories
+        assert a[key] == b[key]

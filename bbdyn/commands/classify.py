@@ -1,4 +1,5 @@
-"""`bbdyn classify --f F [--A --alpha --beta --R --d] [--n N --t T --seed S --box ...] [--json]`.
+"""`bbdyn classify --f F [--A --alpha --beta --R --d] [--n N --t T --seed S --box ...]
+[--hop-floor P] [--json]`.
 
 Runs ``bbdyn.classify.classify`` and prints the verdict and its evidence: the
 regime (docs/model.md, section 5), ergodicity with its numbers, and each attractor with
@@ -56,6 +57,11 @@ def add_arguments(parser) -> None:
         "'s0,s1,vx0,vx1,vy0,vy1'; repeat for several boxes (default: ref)",
     )
     parser.add_argument(
+        "--hop-floor", type=finite, default=None, metavar="PERIODS",
+        help="impacts after flights shorter than this are not counted as collisions "
+        "(periods; default 1e-4; 0 counts every impact; docs/classification.md)",
+    )  # fmt: skip
+    parser.add_argument(
         "--plot", type=output_file, default=None, metavar="PNG",
         help="draw S6/S7/S8-style panels into PNG, in an existing folder (default: no plot)",
     )  # fmt: skip
@@ -98,15 +104,16 @@ def classify_summary(args):
     import time
 
     from bbdyn import __version__
-    from bbdyn.classify import classify
+    from bbdyn.classify import Thresholds, classify
 
     params = params_from(args)
+    thresholds = Thresholds() if args.hop_floor is None else Thresholds(hop_floor=args.hop_floor)
     boxes = [parse_box(b, params) for b in (args.box or ["ref"])]
     start = time.perf_counter()
     bar = run_progress("classify", args.t, args.json)
     res = classify(
         params, t=args.t, n=args.n, seed=args.seed, boxes=boxes, transient=args.transient,
-        threads=args.threads, progress=bar.update_fraction,
+        thresholds=thresholds, threads=args.threads, progress=bar.update_fraction,
     )  # fmt: skip
     bar.close()
     out = {"version": __version__, "params": params.to_dict(), "boxes": [vars(b) for b in boxes]}
