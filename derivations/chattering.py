@@ -2,8 +2,7 @@
 
 Run ``python derivations/chattering.py`` to print the derivation step by step.
 ``flat_stick_time()``, ``arc_gravity()``, ``arc_stick_time_term()``,
-``arc_drift_vt_term()``, ``arc_drift_gt()``, ``drive_stick_time()`` and
-``drive_drift()`` return the results as sympy
+``arc_drift_vt_term()`` and ``arc_drift_gt()`` return the results as sympy
 expressions (the eps^m terms of series in eps), which the tests
 compare with ``chatter_time`` (``bbdyn/core/flat.py``) and ``chatter_sum``
 (``bbdyn/core/billiard.py``) and with a bounce-by-bounce sum.  The model is in
@@ -57,24 +56,6 @@ Arc (radius R, contact at local coordinate xi, ``S = sqrt(R^2 - xi^2)``)
             + g_t tau_0^2 [alpha beta / ((1 - alpha^2)(1 - alpha beta)) + 1 / (2 (1 - alpha^2))].
 
    ``u_k`` tends to zero (beta < 1): the particle comes to rest on the arc.
-
-Drive (first order)
--------------------
-8. The floor's acceleration does change during the sequence: the pull is ``g + r t``
-   (t from the first impact; ``r = A w^3 cos(theta) S / R`` for the arc's normal pull).
-   A hop that starts at ``s_k`` with speed v has ``v tau - (g + r s_k) tau^2/2 - r tau^3/6
-   = 0``; to first order in r it lasts ``tau = u (1 - r s_k / g) - r u^2 / (3 g)`` (``u =
-   2 v / g``) and lands with speed ``v + r u^2 / 6``.
-9. With ``u_k = alpha^k u_0`` the landing gain enters the next hops: the hop times change by
-   ``d_k = (r u_0^2 / (3 g)) alpha^k (1 - alpha^k) / (1 - alpha)`` (a linear recursion),
-   and ``s_k = u_0 (1 - alpha^k) / (1 - alpha)``.  Summed, every alpha cancels:
-
-       tau_inf(r) = tau_inf - r tau_inf^2 / (3 g),    tau_inf = u_0 / (1 - alpha),
-
-   the one-hop result ``u - r u^2 / (3 g)`` for the whole sequence.
-10. The drift ``sum_k beta^k v_t tau_k`` changes by ``- v_t K r u_0^2 / g`` with ``K =
-   (1 + alpha beta) / (3 (1 - alpha beta)(1 - alpha^2 beta))`` (``1 / (3 (1 - alpha)^2)``
-   at beta = 1, the time's own shift).
 """
 
 from __future__ import annotations
@@ -161,62 +142,6 @@ def truncated(term: sp.Expr, terms: int) -> sp.Expr:
     return sp.Add(*(term.subs(m, i) for i in range(terms)))
 
 
-r_drive, u_0, s_k, d_k = sp.symbols("r u_0 s_k d_k", real=True)
-
-
-def drive_hop() -> tuple[sp.Expr, sp.Expr]:
-    """Step 8: ``(tau, landing speed)`` of a hop from ``s_k`` in the pull ``g + r t``, to
-    first order in r."""
-    tau_1 = sp.Symbol("tau_1")
-    u = 2 * v / g_eff
-    tau = u + r_drive * tau_1
-    gap = v * tau - (g_eff + r_drive * s_k) * tau**2 / 2 - r_drive * tau**3 / 6
-    first = sp.diff(gap, r_drive).subs(r_drive, 0)
-    tau = u + r_drive * sp.solve(sp.expand(first), tau_1)[0]
-    rate = v - (g_eff + r_drive * s_k) * tau - r_drive * tau**2 / 2
-    landing = -(rate.subs(r_drive, 0) + r_drive * sp.diff(rate, r_drive).subs(r_drive, 0))
-    return sp.expand(tau), sp.expand(landing)
-
-
-def drive_hop_shifts() -> sp.Expr:
-    """Step 9: first-order change of hop k's time, from its start ``s_k`` and its speed's
-    change (the landing gains of the hops before it, solved from their recursion)."""
-    tau, landing = drive_hop()
-    u_k = u_0 * alpha**k
-    # speed change d_k (as a change of u = 2 v / g): d_{k+1} = alpha (d_k + 2 gain_k / g)
-    gain = sp.expand(landing - v).subs(v, g_eff * u_k / 2)
-    f = sp.Function("d")
-    rec = f(k + 1) - alpha * f(k) - alpha * 2 * gain / g_eff
-    speed = sp.rsolve(rec, f(k), {f(0): 0})
-    start = u_0 * (1 - alpha**k) / (1 - alpha)
-    hop = tau.subs(s_k, start).subs(v, g_eff * (u_k + speed) / 2)
-    return sp.expand(sp.series(hop, r_drive, 0, 2).removeO() - u_k)
-
-
-def _sum_over_k(term: sp.Expr, weight: sp.Expr = 1) -> sp.Expr:
-    """``sum_{k >= 0} weight^k term`` for a term that is a sum of powers alpha^(j k)."""
-    total = 0
-    for piece in sp.Add.make_args(sp.expand(sp.powsimp(sp.expand(term * weight**k), force=True))):
-        total += geometric(piece, k)
-    return sp.simplify(total)
-
-
-def drive_stick_time() -> sp.Expr:
-    """Step 9: first-order change (s) of the accumulation time, ``- r tau_inf^2 / (3 g)``."""
-    return sp.factor(_sum_over_k(drive_hop_shifts()))
-
-
-def drive_drift() -> sp.Expr:
-    """Step 10: first-order change (mm) of the drift ``sum_k beta^k v_t tau_k``."""
-    return sp.factor(v_t * _sum_over_k(drive_hop_shifts(), beta))
-
-
-def drive_drift_form() -> sp.Expr:
-    """Step 10 as written in ``chatter_sum`` (``drift_shift_factor``)."""
-    K = (1 + alpha * beta) / (3 * (1 - alpha * beta) * (1 - alpha**2 * beta))
-    return -v_t * K * r_drive * u_0**2 / g_eff
-
-
 def derivation_steps() -> list[tuple[str, sp.Basic]]:
     """The derivation as (explanation, sympy object) pairs, in order."""
     g_n, g_tan = arc_gravity()
@@ -230,9 +155,6 @@ def derivation_steps() -> list[tuple[str, sp.Basic]]:
         ("arc: tangential velocity u_k at the start of flight k", tangential_velocity(k)),
         ("arc: drift from beta^k v_t = sum_m of", arc_drift_vt_term()),
         ("arc: drift from g_t", sp.factor(arc_drift_gt())),
-        ("drive: one hop (time, landing speed) to first order in r", drive_hop()),
-        ("drive: change of the stick time", drive_stick_time()),
-        ("drive: change of the drift", drive_drift()),
     ]
 
 
@@ -242,8 +164,4 @@ if __name__ == "__main__":
     print(
         "g_t drift equals the form in chatter_sum's docstring:",
         sp.simplify(arc_drift_gt() - drift_model_form()) == 0,
-    )
-    print(
-        "drive's drift equals the form in chatter_sum:",
-        sp.simplify(drive_drift() - drive_drift_form()) == 0,
     )

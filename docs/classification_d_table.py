@@ -15,8 +15,12 @@ classifier reported before (mean over the attractor's particles and the blocks o
 ``ensemble`` run sampled at the block boundaries.  One numba thread.
 
 The statements of docs/classification.md about the table are asserted here: the
-classifier's D is the Einstein D of its particles exactly (and simulate's D when the
-attractor holds every particle), and for every diffusive attractor (D > 3 standard
+classifier's D is the Einstein D of its particles (and simulate's D when the attractor
+holds every particle), to within what the converged fast-forward allows: the classifier's
+run and the ensemble's stop at different times (block edges, sample times), so they skip
+converged stick-release cycles at different points, and positions may differ by up to
+``FF_DRIFT_TOL`` per skipped cycle (``d_bound``; equal bit for bit when nothing is
+skipped), and for every diffusive attractor (D > 3 standard
 errors) the block estimate lies below D by more than twice its own standard error.
 """
 
@@ -30,7 +34,8 @@ from pathlib import Path
 import numpy as np
 
 from bbdyn import Params
-from bbdyn.classify import classify
+from bbdyn.classify import classify_features, trajectory_features
+from bbdyn.core.tolerances import FF_DRIFT_TOL
 from bbdyn.diffusion import einstein_D
 from bbdyn.ensemble import ensemble
 
@@ -55,21 +60,33 @@ def block_estimate(params, c, members, n, t, seed):
     return per.mean(), per.std(ddof=1) / math.sqrt(per.size)
 
 
+def d_bound(x_max, dx, t):
+    """Bound (mm^2/s) of the change of the Einstein D over the window [t/2, t] when positions
+    up to ``x_max`` (mm) move by at most ``dx`` (mm): x^2 moves by at most ``E = 2 x_max dx +
+    dx^2``, a least-squares slope over a window of width t/2 by at most ``3 E / (t/2)``, D by
+    half that.  Zero when the two runs agree bit for bit."""
+    return 3.0 * (2.0 * x_max * dx + dx * dx) / t
+
+
 def rows():
     """One table row per attractor and setting, as strings."""
     out = []
     for f, n, t, seed in SETTINGS:
         params = Params(f=f)
         start = time.perf_counter()
-        c = classify(params, n=n, t=t, seed=seed, threads=1)
+        feat = trajectory_features(params, n=n, t=t, seed=seed, threads=1)
+        c = classify_features(feat)
         sim = ensemble(params, n=n, t=t, seed=seed, threads=1)
         D_sim, se_sim = sim.D()
+        dx = np.abs(feat["displacement"] - sim["displacement"]).max()
+        assert dx <= FF_DRIFT_TOL * f * t, f"displacements differ by {dx} mm at {f} Hz"
         for a, att in enumerate(c.summary["attractors"]):
             mem = np.flatnonzero(c["labels"] == a)
             D_own, se_own = einstein_D(sim["sample_times"], sim["displacement"][mem])
-            assert (D_own, se_own) == (att["D"], att["D_se"]), "classify D is not Einstein's"
+            bound = d_bound(np.abs(sim["displacement"][mem]).max(), dx, t)
+            assert abs(D_own - att["D"]) <= bound, "classify D is not Einstein's"
             if mem.size == n:
-                assert (D_sim, se_sim) == (att["D"], att["D_se"]), "not simulate's D"
+                assert abs(D_sim - att["D"]) <= bound, "not simulate's D"
             D_blk, se_blk = block_estimate(params, c, mem, n, t, seed)
             if att["D"] > 3 * att["D_se"]:  # diffusive: the block estimate fell short
                 assert D_blk + 2 * se_blk < att["D"], f"block estimate at {f} Hz not below D"

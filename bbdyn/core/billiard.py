@@ -91,10 +91,7 @@ from bbdyn.core.taylor import (
     taylor_finish,
 )
 from bbdyn.core.tolerances import (
-    CHATTER_DRIVE_MAX,
     CHATTER_REL_TOL,
-    CHATTER_SECOND_Q,
-    CHATTER_SECOND_RR,
     DEPARTURE_MARGIN,
     DEPARTURE_MAX_TRIES,
     DEPARTURE_REL_TOL,
@@ -493,45 +490,6 @@ def shrinking_series(eps, q, r):
 
 
 @njit(cache=True, fastmath=FMA, inline="always")
-def drift_shift_factor(alpha, beta):
-    """``K = (1 + alpha beta) / (3 (1 - alpha beta)(1 - alpha^2 beta))`` of the drive's
-    first-order change of the chattering drift, ``- v_t K r u_0^2 / g`` (``chatter_sum``).
-
-    With hop times ``u_k = alpha^k u_0`` in a pull ``g + r t``, hop k is shortened by
-    ``(r u_0^2 / g) [2 alpha^k (1 - alpha^k) / (3 (1 - alpha)) + alpha^(2k) / 3]``, here
-    weighted by the tangential speed ``beta^k v_t`` (derivations/chattering.py, step 10; ``K
-    = 1 / (3 (1 - alpha)^2)`` at beta = 1, the time's own shift).
-    """
-    ab = alpha * beta
-    return (1.0 + ab) / (3.0 * (1.0 - ab) * (1.0 - alpha * ab))
-
-
-@njit(cache=True, fastmath=FMA, inline="always")
-def shift_coupling_factor(alpha, beta):
-    """Bound of the first-order drive shift's error in units of ``3 eps / (1 - eps) r u_0^2 /
-    g_n`` when hop k's pull is ``g_n (1 + delta_k)``, ``delta_k = eps (1 - b^k) / (1 - eps)``,
-    ``b = beta^2`` (``chatter_sum``).
-
-    Each of the shift's terms (``s_k u_k / g``, ``u_k^2 / g`` and the speed gained, ``u_j^2 /
-    g``, derivations/chattering.py step 9) has three factors 1/g of hops up to k, so it
-    changes by at most ``3 delta_k`` of itself; summed with their weights ``alpha^k (1 -
-    alpha^k) / (1 - alpha)`` (times 1 and 1/3) and ``alpha^(2k) / 3``::
-
-        4 X1 / (3 (1 - alpha)) + X2 / 3,
-        X1 = sum_k alpha^k (1 - alpha^k)(1 - b^k)
-           = 1 / (1 - alpha) - 1 / (1 - alpha^2) - 1 / (1 - alpha b) + 1 / (1 - alpha^2 b),
-        X2 = sum_k alpha^(2k) (1 - b^k) = 1 / (1 - alpha^2) - 1 / (1 - alpha^2 b).
-
-    Small for beta near 1, where every hop feels nearly the first hop's pull.
-    """
-    b = beta * beta
-    a2 = alpha * alpha
-    x1 = 1.0 / (1.0 - alpha) - 1.0 / (1.0 - a2) - 1.0 / (1.0 - alpha * b) + 1.0 / (1.0 - a2 * b)
-    x2 = 1.0 / (1.0 - a2) - 1.0 / (1.0 - a2 * b)
-    return 4.0 * x1 / (3.0 * (1.0 - alpha)) + x2 / 3.0
-
-
-@njit(cache=True, fastmath=FMA, inline="always")
 def chatter_sum(cs, xi, S, vn, vt, g_eff, kp):
     """Closed-form sum of a chattering sequence on an arc (derivations/chattering.py).
 
@@ -551,26 +509,19 @@ def chatter_sum(cs, xi, S, vn, vt, g_eff, kp):
     g_eff xi / R`` the tangential pull, whose term takes the flat flights and is off by at
     most ``eps (2 - eps) / (1 - eps)^2`` of itself).
 
-    The drive changes the pull during the sequence at the rate ``r = A w^3 cs S / R``
-    (mm/s^3).  To first order in r, whatever alpha, a sequence of hops in one pull ``g_n =
-    g0 (1 - eps)`` ends earlier by ``shift = r tau^2 / (3 g_n)``, ``tau = u_0 / (1 - alpha)``,
-    ``u_0 = 2 vn / g_n``, and drifts less by ``vt K r u_0^2 / g_n`` (``K`` of
-    ``drift_shift_factor``); both are applied.  Neglected: the second order, below
-    ``(CHATTER_SECOND_RR (r / g_n)^2 + CHATTER_SECOND_Q q / g_n) tau_inf^3`` with ``q = A w^4
-    S / R`` bounding the rate of r (valid while ``r tau_inf / g_n``, ``q tau_inf^2 / g_n`` and
-    ``w tau_inf`` are at most ``CHATTER_DRIVE_MAX``); the shift's error from hop k's pull
-    being ``g_n (1 + delta_k)``, ``delta_k = eps (1 - beta^(2k)) / (1 - eps)``, not g_n
-    (``shift_coupling_factor``); and changes of the pull itself, each moving ``tau_inf`` by
-    ``tau_inf`` times their size over ``g_n``: the turn of the normal over ``ds`` (``g_eff (|xi|
-    + |ds| / 2) |ds| / R^2``), the tangential speed gained from ``g_t`` (``(2 |vt| |g_t|
-    tau_inf + (g_t tau_inf)^2) / R``) and the arc's curvature over a hop's height (``eps g0
-    (vn^2 / g_n + (vt tau_0)^2 / R) / R``); and the series' rest beyond the terms summed
-    (``shrinking_series``).  The sum is accepted only when all of this is below
-    ``CHATTER_REL_TOL`` periods (tests/test_billiard_chatter_reference.py checks the time of
-    rest against the sequence solved bounce by bounce in mpmath).
+    Neglected: the change of the drive during the sequence (rate at most ``A w^3 |cos| +
+    A w^4 tau_inf``), which moves ``tau_inf`` by about ``rate tau_inf^2 / g_n``; and
+    changes of the pull itself, each moving ``tau_inf`` by ``tau_inf`` times their size
+    over ``g_n = g0 (1 - eps)``: the turn of the normal over ``ds`` (``g_eff |ds| / R``),
+    the tangential speed gained from ``g_t`` (``(2 |vt| |g_t| tau_inf + (g_t tau_inf)^2) /
+    R``) and the arc's curvature over a hop's height (``eps g0 (vn^2 / g_n + (vt tau_0)^2
+    / R) / R``); and the series' rest beyond the terms summed (``shrinking_series``).  The
+    sum is accepted only when all of this is below ``CHATTER_REL_TOL`` periods
+    (tests/test_billiard_chatter_reference.py checks the time of rest against the sequence
+    solved bounce by bounce in mpmath).
 
-    Returns ``(tau_inf - shift, ds)``; ``tau_inf = inf`` when not accepted, for ``alpha =
-    1`` (no accumulation) and for ``beta = 1`` (sliding, not modelled).
+    Returns ``(tau_inf, ds)``; ``tau_inf = inf`` when not accepted, for ``alpha = 1`` (no
+    accumulation) and for ``beta = 1`` (sliding, not modelled).
     """
     A, w, alpha, beta, R = kp.A, kp.w, kp.alpha, kp.beta, kp.R
     if alpha >= 1.0 or beta >= 1.0:
@@ -580,65 +531,31 @@ def chatter_sum(cs, xi, S, vn, vt, g_eff, kp):
     g_n = g0 * (1.0 - eps)
     tau0 = 2.0 * vn / g0
     aw3 = A * w * w * w
-    r = aw3 * cs * S / R  # d g0 / dt from the drive
-    q = aw3 * w * S / R  # bounds |d r / dt|
+    cos_abs = abs(cs)
     budget = CHATTER_REL_TOL * kp.period * g_n
     # Most impacts fail already with the series' first term, tau_inf >= tau_0 / (1 - alpha)
     # (every test below grows with tau_inf): refuse them before summing the series.
     tau_low = tau0 * (1.0 / (1.0 - alpha))
-    if not chatter_drive_ok(tau_low, r, q, g_n, g_eff, aw3, w, budget):
+    drive_low = (aw3 * cos_abs + aw3 * w * tau_low) * tau_low
+    if not (aw3 * tau_low < 0.5 * g_eff and drive_low * tau_low <= budget):
         return math.inf, 0.0
     F, _, rest_F = shrinking_series(eps, alpha, beta * beta)
     tau_inf = tau0 * F
-    if not chatter_drive_ok(tau_inf, r, q, g_n, g_eff, aw3, w, budget):
+    if not aw3 * tau_inf < 0.5 * g_eff:
         return math.inf, 0.0
     ab = alpha * beta
     g_t = g_eff * xi / R
     one_a2 = 1.0 - alpha * alpha
     H, _, rest_H = shrinking_series(eps, ab, beta * beta)
-    u0 = 2.0 * vn / g_n
-    c = r * u0 * u0 / g_n
-    ds = (
-        vt * tau0 * H
-        + g_t * tau0 * tau0 * (ab / (one_a2 * (1.0 - ab)) + 0.5 / one_a2)
-        - vt * drift_shift_factor(alpha, beta) * c
-    )
+    ds = vt * tau0 * H + g_t * tau0 * tau0 * (ab / (one_a2 * (1.0 - ab)) + 0.5 / one_a2)
     ds_bound = abs(ds) + abs(vt) * tau0 * rest_H
-    shift = c / (3.0 * (1.0 - alpha) ** 2)
-    coupling = 3.0 * eps / (1.0 - eps) * abs(c) * shift_coupling_factor(alpha, beta)
-    turn = g_eff * (abs(xi) + 0.5 * ds_bound) * ds_bound / (R * R)
+    drive = (aw3 * cos_abs + aw3 * w * tau_inf) * tau_inf
     gained = (2.0 * abs(vt) * abs(g_t) + g_t * g_t * tau_inf) * tau_inf / R
     curvature = eps * g0 * (vn * vn / g_n + (vt * tau0) ** 2 / R) / R
-    pull = turn + gained + curvature
-    error = (pull * tau_inf + tau0 * rest_F * g_n) + (
-        chatter_second_order(tau_inf, r, q, g_n) + coupling
-    ) * g_n
-    if not error <= budget:
+    pull = drive + g_eff * ds_bound / R + gained + curvature
+    if not pull * tau_inf + tau0 * rest_F * g_n <= budget:
         return math.inf, 0.0
-    return tau_inf - shift, ds
-
-
-@njit(cache=True, fastmath=FMA, inline="always")
-def chatter_second_order(tau, r, q, g_n):
-    """Bound (s) of the second-order drive terms ``chatter_sum`` leaves out of a sequence of
-    length ``tau`` (s): ``(CHATTER_SECOND_RR (r / g_n)^2 + CHATTER_SECOND_Q q / g_n) tau^3``."""
-    x = r / g_n
-    return (CHATTER_SECOND_RR * x * x + CHATTER_SECOND_Q * q / g_n) * tau * tau * tau
-
-
-@njit(cache=True, fastmath=FMA, inline="always")
-def chatter_drive_ok(tau, r, q, g_n, g_eff, aw3, w, budget):
-    """True when a sequence of length ``tau`` (s) is short enough for ``chatter_sum``'s drive
-    terms: the floor holds the particle throughout (``A w^3 tau < g_eff / 2``), the expansion
-    in the drive holds (``CHATTER_DRIVE_MAX``) and its second order fits the ``budget``."""
-    small = CHATTER_DRIVE_MAX * g_n
-    return (
-        aw3 * tau < 0.5 * g_eff
-        and abs(r) * tau <= small
-        and q * tau * tau <= small
-        and w * tau <= CHATTER_DRIVE_MAX
-        and chatter_second_order(tau, r, q, g_n) * g_n <= budget
-    )
+    return tau_inf, ds
 
 
 @njit(cache=True, fastmath=FMA, inline="always")

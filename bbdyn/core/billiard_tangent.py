@@ -65,18 +65,14 @@ close to the wedge followed at once by one on the neighbour.
 Sticking: the tangent space collapses onto the floor.  A chattering sequence
 summed in closed form (``chatter_sum``) ends at the stick point
 
-    xi_s = xi cos(ds / R) + S sin(ds / R),    theta_s = theta + w (tau_inf - shift),
+    xi_s = xi cos(ds / R) + S sin(ds / R),    theta_s = theta + w tau_inf,
 
 with ``tau_inf, ds`` functions of ``(theta, xi, V_n, V_t)`` just after the last
 impact (``chatter_sum``): ``g_eff = g + a``, ``g_0 = g_eff S / R``,
-``eps = V_t^2 / (g_eff S)``, ``tau_0 = 2 V_n / g_0``, ``tau_inf = tau_0 F(eps; alpha, beta^2)``
-(the stick comes ``tau_inf`` less the drive's shift after the impact),
+``eps = V_t^2 / (g_eff S)``, ``tau_0 = 2 V_n / g_0``, ``tau_inf = tau_0 F(eps; alpha, beta^2)``,
 ``g_t = g_eff xi / R``, ``ds = V_t tau_0 F(eps; alpha beta, beta^2) + g_t tau_0^2 c_2`` with
 ``c_2 = alpha beta / ((1 - alpha^2)(1 - alpha beta)) + 1 / (2 (1 - alpha^2))``, and ``F``,
-``dF/deps`` from ``shrinking_series``; less the drive's first-order shifts ``r u_0^2 /
-(3 g_n (1 - alpha)^2)`` of the time and ``V_t K r u_0^2 / g_n`` of the drift (``r = A w^3
-cos(theta) S / R``, ``g_n = g_0 (1 - eps)``, ``u_0 = 2 V_n / g_n``, ``K`` of
-``drift_shift_factor``).
+``dF/deps`` from ``shrinking_series``.
 Its Jacobian ``K`` has only the rows ``theta_s`` and ``x_s``: the velocity
 components ``dvx, dvyrel`` vanish (the particle rests on the floor).  A stick
 at a wedge (a drift clamped there, a wedge collapse, ``V_n = 0``) pins the
@@ -99,7 +95,6 @@ from numba import njit
 from bbdyn.core.billiard import (
     billiard_flight,
     collide,
-    drift_shift_factor,
     shrinking_series,
     snap_to_wedge,
     wedge_reflect,
@@ -249,13 +244,7 @@ def chatter_stick_rows(phase, xi, vx, vyrel, kp, M):
     ab = alpha * beta
     one_a2 = 1.0 - alpha * alpha
     c2 = ab / (one_a2 * (1.0 - ab)) + 0.5 / one_a2
-    # the drive's first-order shifts: -r u_0^2 / (3 g_n (1 - alpha)^2) and -v_t K r u_0^2 / g_n
-    aw3 = aw2 * w
-    r = aw3 * math.cos(phase) * S / R
-    g_n = g0 * (1.0 - eps)
-    u0 = 2.0 * vn / g_n
-    K = drift_shift_factor(alpha, beta)
-    ds = vt * tau0 * H + g_t * tau0 * tau0 * c2 - vt * K * r * u0 * u0 / g_n
+    ds = vt * tau0 * H + g_t * tau0 * tau0 * c2
     cr, sr = math.cos(ds / R), math.sin(ds / R)
     for j in range(4):
         # one input direction of (theta, x, vx, vyrel): forward-mode derivatives
@@ -271,28 +260,12 @@ def chatter_stick_rows(phase, xi, vx, vyrel, kp, M):
         d_eps = (2.0 * vt * d_vt - eps * (d_geff * S + g_eff * d_S)) / (g_eff * S)
         d_tau0 = 2.0 * d_vn / g0 - tau0 * d_g0 / g0
         d_gt = (d_geff * xi + g_eff * d_xi) / R
-        d_r = aw3 * (math.cos(phase) * d_S - math.sin(phase) * S * d_th) / R
-        d_gn = (d_geff * S + g_eff * d_S - 2.0 * vt * d_vt) / R
-        d_tau = d_tau0 * F + tau0 * dF * d_eps
-        d_u0 = (2.0 * d_vn - u0 * d_gn) / g_n
-        d_shift = (
-            u0
-            * (d_r * u0 + 2.0 * r * d_u0 - r * u0 * d_gn / g_n)
-            / (3.0 * g_n * (1.0 - alpha) ** 2)
-        )
-        d_drift_shift = (
-            K
-            * u0
-            * (d_vt * r * u0 + vt * d_r * u0 + 2.0 * vt * r * d_u0 - vt * r * u0 * d_gn / g_n)
-            / g_n
-        )
         d_ds = (
             H * (d_vt * tau0 + vt * d_tau0)
             + vt * tau0 * dH * d_eps
             + c2 * (d_gt * tau0 * tau0 + 2.0 * g_t * tau0 * d_tau0)
-            - d_drift_shift
         )
-        M[0, j] = d_th + w * (d_tau - d_shift)
+        M[0, j] = d_th + w * (d_tau0 * F + tau0 * dF * d_eps)
         M[1, j] = d_xi * cr + d_S * sr + (S * cr - xi * sr) * d_ds / R
 
 

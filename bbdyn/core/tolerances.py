@@ -21,17 +21,6 @@ ROOT_MAX_STEPS = 100_000
 #: time falls below this fraction of a driving period.
 CHATTER_REL_TOL = 64.0 * EPS
 
-#: The chattering sum corrects its accumulation time for the drive's rate r (mm/s^3) to first
-#: order, ``tau_inf - r tau_inf^2 / (3 g)``; what is left is second order, at most
-#: ``(c_rr (r / g)^2 + c_q |q| / g) tau_inf^3`` with q the rate of r.  In a constant-rate
-#: sequence c_rr and -c_q grow with alpha from 2/9 and 1/12 (alpha = 0, one hop) towards 7/27
-#: and 1/9 (alpha -> 1; tests/test_billiard_chatter_reference.py measures them in mpmath);
-#: these bounds are those limits padded by 10 % for the third-order terms, which stay below
-#: that while ``r tau_inf / g`` and ``w tau_inf`` are at most CHATTER_DRIVE_MAX.
-CHATTER_SECOND_RR = 0.29
-CHATTER_SECOND_Q = 0.125
-CHATTER_DRIVE_MAX = 0.05
-
 #: Most terms of the chattering sum's series in eps = v_t^2 / (g_eff S) (``shrinking_series``
 #: in ``billiard.py``); 512 terms reach rounding for eps up to about 0.9 (at alpha = 0.5).
 #: Beyond that the bound of the series' rest enters the sum's error budget: the sum is
