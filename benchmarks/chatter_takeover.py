@@ -8,23 +8,25 @@ impact; the classifier calls an attractor *creeping* (regime c) when at least ``
 flights shorter than ``hop_floor`` periods (``bbdyn classify --hop-floor``; 0 counts every
 impact).  This benchmark varies where the sum takes over:
 
-* the tree as it is (``--tree``);
-* copies of it with ``CHATTER_REL_TOL`` multiplied by each ``--scale`` (the same sum,
+* the tree as it is (``--tree``) and other source trees (``--other``), e.g. a worktree of
+  another kernel;
+* copies of each with ``CHATTER_REL_TOL`` multiplied by every ``--scale`` (the same sum,
   accepted with a looser or tighter budget);
-* other source trees (``--other``), e.g. a worktree of another kernel;
 
 and classifies each with every ``--hop-floor``.  For every tree, floor and frequency
 ``bbdyn classify --f F --n N --t T --seed 0 --threads 1 --hop-floor H`` (its own numba cache)
-gives the regime and each attractor's tiny-hop fraction, collision rate and D.  For the
-``--other`` trees the scan's runs are also timed against the tree (the workers of
-``kernel_buffers.py``, medians of ``--repeats``), and the ratios applied to a measured full
-scan as in ``chatter_oracle.py``.
+gives the regime and each attractor's tiny-hop fraction, collision rate and D.  With
+``--simulate F``, ``bbdyn simulate --f F --n 1000 --t 200`` on every tree gives D, E and E_x:
+how far they move with the take-over, and whether two kernels converge to the same values as
+the budget is tightened.  With ``--time`` the scan's runs on the ``--other`` trees are also
+timed against the tree (the workers of ``kernel_buffers.py``, medians of ``--repeats``), and
+the ratios applied to a measured full scan as in ``chatter_oracle.py``.
 
 Usage::
 
     python benchmarks/chatter_takeover.py [--tree .] [--scale 0.25 4 64] [--other TREE ...]
-        [--hop-floor 1e-4 0] [--f 70 71.4 74.8 78.4 81.6] [--n 20] [--t 20] [--repeats 3]
-        [--json OUT]
+        [--hop-floor 1e-4 0] [--f 70 71.4 74.8 78.4 81.6] [--n 20] [--t 20] [--simulate F ...]
+        [--time] [--repeats 3] [--json OUT]
 """
 
 import argparse
@@ -97,31 +99,61 @@ def time_trees(trees: list[str], args, folder: str) -> list[dict]:
             for f in chatter_oracle.F_DEFAULT]  # fmt: skip
 
 
+def simulate(env: dict, f: float, n: int, t: float) -> dict:
+    """``bbdyn simulate`` at ``f`` in the environment ``env`` of ``tree_env``: D (mm^2/s), the
+    energies E and E_x (kg mm^2/s^2) with their standard errors, and the collision rate."""
+    cmd = [sys.executable, "-m", "bbdyn", "simulate", "--f", str(f), "--n", str(n),
+           "--t", str(t), "--seed", "0", "--json"]  # fmt: skip
+    out = subprocess.run(cmd, env=env, cwd=env["NUMBA_CACHE_DIR"], capture_output=True,
+                         text=True, check=True)  # fmt: skip
+    res = json.loads(out.stdout)
+    keys = ("D", "D_se", "E", "E_se", "E_x", "E_x_se", "collisions_per_particle_per_s")
+    return {"f": f, **{k: res[k] for k in keys}}
+
+
+def variant_trees(args, folder: str) -> tuple[list[str], list[str]]:
+    """The tree and each ``--other`` tree, each followed by its copies with the budget scaled
+    by every ``--scale``: ``(paths, names)``."""
+    paths, names = [], []
+    bases = [(args.tree, "as is")] + [(o, kernel_buffers.tree_label(o)) for o in args.other]
+    for j, (base, name) in enumerate(bases):
+        paths.append(base)
+        names.append(name)
+        for s in args.scale:
+            paths.append(scaled_tree(base, s, os.path.join(folder, f"base{j}")))
+            scaled = f"CHATTER_REL_TOL x {s:g}"
+            names.append(scaled if j == 0 else f"{name}, {scaled}")
+    return paths, names
+
+
 def measure(args) -> dict:
-    """Classification on every tree with every hop floor, timing of the ``--other`` trees
+    """Classification of every variant tree with every hop floor, ``bbdyn simulate`` on each
+    at the ``--simulate`` frequencies and, with ``--time``, timing of the ``--other`` trees
     against the tree."""
     with tempfile.TemporaryDirectory() as folder:
-        scaled = [scaled_tree(args.tree, s, folder) for s in args.scale]
-        trees = [args.tree, *scaled, *args.other]
-        names = (["as is"] + [f"CHATTER_REL_TOL x {s:g}" for s in args.scale]
-                 + [kernel_buffers.tree_label(o) for o in args.other])  # fmt: skip
+        trees, names = variant_trees(args, folder)
         envs = []
         for i, tree in enumerate(trees):
             os.makedirs(os.path.join(folder, f"cache{i}"))
             envs.append(tree_env(tree, os.path.join(folder, f"cache{i}")))
         floors = args.hop_floor
         jobs = [(i, h, f) for h in floors for i in range(len(trees)) for f in args.f]
+        sims = [(i, f) for i in range(len(trees)) for f in args.simulate]
         with ThreadPoolExecutor(max_workers=args.workers) as pool:
             runs = list(pool.map(lambda job: classify(envs[job[0]], job[2], args.n, args.t,
                                                       job[1]), jobs))  # fmt: skip
-        timing = time_trees([args.tree, *args.other], args, folder) if args.other else []
+            simulated = list(pool.map(lambda job: simulate(envs[job[0]], job[1], 1000, 200.0),
+                                      sims))  # fmt: skip
+        timing = time_trees([args.tree, *args.other], args, folder) if args.time else []
     variants = [{"label": f"{name}, hop_floor {h:g}", "tree": name, "hop_floor": h,
                  "runs": [r for (k, hk, _), r in zip(jobs, runs, strict=True)
                           if k == i and hk == h]}
                 for h in floors for i, name in enumerate(names)]  # fmt: skip
     return {"tree": kernel_buffers.tree_label(args.tree), "n": args.n, "t": args.t,
             "seed": 0, "hop_floors": floors, "variants": variants, "timing": timing,
-            "timed": [kernel_buffers.tree_label(o) for o in args.other]}  # fmt: skip
+            "simulate": [{"tree": names[i], **r}
+                         for (i, _), r in zip(sims, simulated, strict=True)],
+            "timed": [kernel_buffers.tree_label(o) for o in args.other if args.time]}  # fmt: skip
 
 
 def main_tiny_fraction(run: dict) -> float:
@@ -163,6 +195,11 @@ def main() -> None:
     parser.add_argument("--t", type=float, default=20.0, help="simulated time (s)")
     parser.add_argument("--hop-floor", type=float, nargs="+", default=[1e-4, 0.0],
                         help="classify with each of these hop floors (periods)")  # fmt: skip
+    parser.add_argument("--simulate", type=float, nargs="*", default=[],
+                        help="also run bbdyn simulate (n 1000, t 200 s) on every variant at these "
+                        "frequencies (Hz)")  # fmt: skip
+    parser.add_argument("--time", action="store_true",
+                        help="time the scan's runs on the --other trees against the tree")
     parser.add_argument("--workers", type=int, default=2, help="classify runs at once")
     args = parser.parse_args()
     report = measure(args)
