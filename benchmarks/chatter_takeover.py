@@ -172,6 +172,39 @@ def doc_table(report: dict) -> str:
     return "\n".join(lines)
 
 
+def simulate_table(report: dict) -> str:
+    """Per ``--simulate`` run: the variant, E_x and E (kg mm^2/s^2, to 10 and 13 significant
+    digits, with their standard errors over particles) and the collision rate."""
+    lines = ["| variant | f (Hz) | E_x | E | collisions per particle per s |",
+             "|---|---:|---:|---:|---:|"]  # fmt: skip
+    for r in report["simulate"]:
+        lines.append(f"| {r['tree']} | {r['f']:g} | {r['E_x']:.10g} ± {r['E_x_se']:.1g} "
+                     f"| {r['E']:.13g} ± {r['E_se']:.1g} "
+                     f"| {r['collisions_per_particle_per_s']:.1f} |")  # fmt: skip
+    return "\n".join(lines)
+
+
+def budget_series(report: dict, kernel: str, f: float) -> dict:
+    """E_x of ``kernel``'s ``--simulate`` runs at ``f`` with the budget tightened: ``{scale:
+    E_x}`` for the kernel as is (scale 1) and its copies scaled below 1, the ratios of
+    successive differences (one per two factors of the budget), and the value the last
+    difference's ratio extrapolates to (geometric series)."""
+    runs = {r["tree"]: r["E_x"] for r in report["simulate"] if r["f"] == f}
+    prefix = "" if kernel == "as is" else f"{kernel}, "
+    ex = {1.0: runs[kernel]}
+    for name, value in runs.items():
+        if name.startswith(prefix + "CHATTER_REL_TOL x "):
+            scale = float(name.rsplit(" ", 1)[1])
+            if scale < 1.0:
+                ex[scale] = value
+    scales = sorted(ex, reverse=True)
+    diffs = [ex[a] - ex[b] for a, b in zip(scales, scales[1:], strict=False)]
+    ratios = [b / a for a, b in zip(diffs, diffs[1:], strict=False)]
+    r = ratios[-1]
+    limit = ex[scales[-1]] - diffs[-1] * r / (1.0 - r)
+    return {"E_x": ex, "ratios": ratios, "limit": limit}
+
+
 def predicted_scan(report: dict, points: list[dict]) -> list[list[float]]:
     """Per timed tree: the scan's CPU s per band and all, from the measured ratios."""
     rows = [{"f": r["f"], "ratio": [r["cpu_s"][0] / c for c in r["cpu_s"][1:]]}
@@ -204,6 +237,8 @@ def main() -> None:
     args = parser.parse_args()
     report = measure(args)
     print(doc_table(report))
+    if report["simulate"]:
+        print(simulate_table(report))
     if report["timing"]:
         points = chatter_oracle.add_prediction(report, args.scan, predicted_scan)
         print(scan_table(report, points))

@@ -38,64 +38,114 @@ def test_the_main_attractor_gives_the_share():
     assert m.main_tiny_fraction(run) == 0.4
 
 
+def _floor_runs(report, hop_floor):
+    """Per frequency: the regimes and main tiny-hop fractions of every variant at ``hop_floor``."""
+    m = _module()
+    variants = [v for v in report["variants"] if v["hop_floor"] == hop_floor]
+    freqs = [r["f"] for r in variants[0]["runs"]]
+    regimes = {f: [v["runs"][k]["regime"] for v in variants] for k, f in enumerate(freqs)}
+    shares = {f: [m.main_tiny_fraction(v["runs"][k]) for v in variants]
+              for k, f in enumerate(freqs)}  # fmt: skip
+    return regimes, shares, len(variants)
+
+
 def test_the_docs_show_the_committed_report():
     m = _module()
     report = _report()
-    scan = json.loads((ROOT / report["scan"]).read_text())
-    wall = json.loads((ROOT / "docs" / "scan_compare" / "full_scan_323a012_wall.json").read_text())
+    text = (ROOT / "docs" / "benchmarks.md").read_text()
+    assert m.doc_table(report) in text
+    assert m.simulate_table(report) in text
+    assert report["hop_floors"] == [1e-4, 0.0] and report["timing"] == []
+    assert f"(its JSON says {report['tree']}:" in " ".join(text.split())
+
+
+def test_with_the_floor_the_labels_do_not_depend_on_the_take_over():
+    """hop_floor 1e-4: the tiny-hop fractions of both kernels, each with the budget scaled by
+    1/16 to 4, agree within 0.02 at every frequency, and the label is d but at 71.4 Hz (a,
+    from the jump rate); counting every impact they spread 5 times more and c and d mix."""
+    report = _report()
+    regimes, shares, nv = _floor_runs(report, 1e-4)
+    regimes0, shares0, _ = _floor_runs(report, 0.0)
+    spread = max(max(s) - min(s) for s in shares.values())
+    spread0 = max(max(s) - min(s) for s in shares0.values())
+    assert spread < 0.02 and spread0 > 5 * spread
+    assert all(set(r) == {"d"} for f, r in regimes.items() if f != 71.4)
+    assert set(regimes[71.4]) == {"a", "d"}
+    assert any({"c", "d"} <= set(r) for r in regimes0.values())
+    flat = _flat("benchmarks.md")
+    assert (
+        f"the tiny-hop fractions of the {nv} variants lie within {spread:.3f} of each other at "
+        f"every frequency, and the regime is d everywhere except at 71.4 Hz, where "
+        f"{regimes[71.4].count('a')} of the {nv} variants give a"
+    ) in flat
+    assert f"Without the floor the fractions spread over up to {spread0:.3f}" in flat
+    low = min(min(s) for s in shares.values())
+    high = max(max(s) for s in shares.values())
+    tree = {f: s[0] for f, s in _floor_runs(report, 0.0)[1].items()}
+    tree_c = [f for f, r in regimes0.items() if r[0] == "c"]
+    page = _flat("classification.md")
+    assert f"fractions lie between {low:.2f} and {high:.2f}" in page
+    assert f"within {spread:.3f} of each other at each frequency" in page
+    assert f"the tree gives {min(tree.values()):.2f} to {max(tree.values()):.2f}" in page
+    assert f"c at {', '.join(f'{f:g}' for f in tree_c[:-1])} and {tree_c[-1]:g} Hz" in page
+
+
+def test_both_kernels_tend_to_one_creep_energy():
+    """56.8 Hz (every particle on one creep cycle): E_x on each kernel moves half as much per
+    factor 4 of the budget, both extrapolate to one value, and route 3's default is over ten
+    times farther from it than the tree's."""
+    m = _module()
+    report = _report()
+    (other,) = {r["tree"].split(",")[0] for r in report["simulate"]} - {"as is"} - {
+        r["tree"] for r in report["simulate"] if r["tree"].startswith("CHATTER")
+    }
+    tree, route3 = m.budget_series(report, "as is", 56.8), m.budget_series(report, other, 56.8)
+    for series in (tree, route3):
+        assert all(0.4 < r < 0.6 for r in series["ratios"])
+    d_tree = tree["E_x"][1.0] - tree["limit"]
+    d_route3 = route3["E_x"][1.0] - route3["limit"]
+    assert abs(tree["limit"] - route3["limit"]) < 0.1 * abs(d_tree)
+    assert d_route3 > 10 * d_tree > 0
+    flat = _flat("benchmarks.md")
+    assert (
+        f"(ratios {tree['ratios'][-1]:.2f} and {route3['ratios'][-1]:.2f}), and both tend to the "
+        f"same value ({tree['limit']:.10f} and {route3['limit']:.10f}, extrapolated). At the "
+        f"default budget the kernel on main is {d_tree:.1e} from it, route 3 {d_route3:.1e}: "
+        f"{d_route3 / d_tree:.0f} times farther"
+    ) in flat
+    assert f"not worth a {d_route3 / d_tree:.0f} times larger error" in flat
+
+
+def test_the_route3_scan_against_the_figures():
+    """docs/benchmarks.md on the full scan with route 3 merged: wall and CPU time, the
+    speed-up band by band over 323a012, and the comparison with S3_full (recomputed)."""
+    from bbdyn.scenes.b2_scan_cost import measured_speedup_table
+
+    sc = load_benchmark("scan_compare")
+    folder = ROOT / "docs" / "scan_compare"
+    scan = json.loads((folder / "full_scan_bef9a86.json").read_text())
+    wall = json.loads((folder / "full_scan_bef9a86_wall.json").read_text())
+    before = json.loads((folder / "full_scan_323a012.json").read_text())
+    saved = json.loads((folder / "full_scan_compare_bef9a86.json").read_text())
     text = (ROOT / "docs" / "benchmarks.md").read_text()
     flat = " ".join(text.split())
-    assert m.doc_table(report) in text
-    assert m.scan_table(report, scan["points"]) in text
-    assert m.predicted_scan(report, scan["points"]) == report["predicted_cpu_s"]
-    (route3,) = report["timed"]
-    predicted = report["predicted_cpu_s"][0][-1]
-    walls = predicted * wall["wall_s"] / scan["cpu_s"]
-    assert f"`route3-drive-shift` ({route3})" in flat
-    assert f"{predicted:.0f} CPU s, about {walls:.0f} s wall" in flat
-    assert f"{scan['cpu_s'] / predicted:.2f} times less" in flat
-
-
-def test_the_classification_page_states_what_was_measured():
-    report = _report()
-    as_is, *others = [v for v in report["variants"] if "floor" not in v["label"]]
-    assert as_is["label"] == "as is"
-    share = {r["f"]: _module().main_tiny_fraction(r) for r in as_is["runs"]}
-    flat = _flat("classification.md")
-    assert f"{share[70.0]:.3f} at 70 Hz" in flat and f"{share[78.4]:.3f} at 78.4 Hz" in flat
-    changed = {r["f"] for v in others for r, r0 in zip(v["runs"], as_is["runs"], strict=True)
-               if r["regime"] != r0["regime"]}  # fmt: skip
-    scaled = {r["f"] for v in others if v["label"].startswith("CHATTER_REL_TOL")
-              for r, r0 in zip(v["runs"], as_is["runs"], strict=True)
-              if r["regime"] != r0["regime"]}  # fmt: skip
-    n = len(as_is["runs"])
-    assert f"changes at {len(changed)} of the {n} frequencies" in flat
-    assert f"at {len(scaled)} of them already with the budget alone scaled" in flat
-    # the sums taking over much earlier (budget x 64, route 3) count fewer tiny hops everywhere
-    m = _module()
-    shares = {v["label"]: [m.main_tiny_fraction(r) for r in v["runs"]] for v in report["variants"]}
-    for label in ("CHATTER_REL_TOL x 64", report["timed"][0]):
-        assert all(a < b for a, b in zip(shares[label], shares["as is"], strict=True)), label
-    assert "counts fewer tiny hops at every frequency" in flat
-
-
-def test_with_a_floor_the_kernels_agree():
-    """Impacts after flights below the floor left out: the count no longer depends on where
-    the sum takes over, and the tree and the branch give the same regimes."""
-    m = _module()
-    report = _report()
-    floor = report["floor"]
-    base, route3 = (v for v in report["variants"] if "floor" in v["label"])
-    assert base["label"] == f"as is, floor {floor:g} periods"
-    assert route3["label"] == f"{report['timed'][0]}, floor {floor:g} periods"
-    shares = [[m.main_tiny_fraction(r) for r in v["runs"]] for v in (base, route3)]
-    regimes = [[r["regime"] for r in v["runs"]] for v in (base, route3)]
-    assert regimes[0] == regimes[1]
-    diff = max(abs(a - b) for a, b in zip(*shares, strict=True))
-    flat = _flat("classification.md")
-    f0 = base["runs"][0]["f"]
-    assert (
-        f"left out ({floor:g} periods), the tree and the branch give the same regime at every "
-        f"frequency ({', '.join(sorted(set(regimes[0])))}), and tiny-hop fractions within "
-        f"{diff:.3f} of each other ({shares[0][0]:.3f} and {shares[1][0]:.3f} at {f0:g} Hz)"
-    ) in flat
+    assert wall["scan"] == "docs/scan_compare/full_scan_bef9a86.json"
+    assert f"{wall['wall_s']:.0f} s wall and {scan['cpu_s']:.0f} s of CPU time" in flat
+    assert measured_speedup_table(before["points"], scan["points"]) in text
+    assert f"its {100 * (before['cpu_s'] / scan['cpu_s'] - 1):.0f} % are not worth" in flat
+    assert sc.doc_table(saved) in text
+    again = sc.z_scores(sc.load_old(ROOT / "docs" / "figures" / "S3_full.npz"),
+                        sc.load_new(folder / "full_scan_bef9a86.json"))  # fmt: skip
+    f = again["f"]
+    for name in ("D", "E", "E_x"):
+        assert {k: v for k, v in again[name].items() if k != "z"} == saved[name]
+    (d_out,) = f[abs(again["D"]["z"]) > 3]
+    assert f"at one point ({d_out:g} Hz, z = {again['D']['z'][f == d_out][0]:.1f})" in flat
+    ex_out = list(f[abs(again["E_x"]["z"]) > 3])
+    assert ex_out == [56.6, 56.8, 57.0]
+    assert "E_x differs beyond 3 at 56.6, 56.8 and 57 Hz" in flat
+    old = sc.load_old(ROOT / "docs" / "figures" / "S3_full.npz")
+    i = list(old["f"]).index(56.8)
+    j = [p["f"] for p in scan["points"]].index(56.8)
+    rel = abs(scan["points"][j]["E_x"] / old["E_x"][i] - 1)
+    assert f"E_x moved by {rel:.1e} of its value".replace("e-06", "e-6") in flat
