@@ -114,6 +114,8 @@ def test_both_kernels_tend_to_one_creep_energy():
         f"{d_route3 / d_tree:.0f} times farther"
     ) in flat
     assert f"not worth a {d_route3 / d_tree:.0f} times larger error" in flat
+    rel = f"{d_tree / tree['limit']:.0e}".replace("e-0", "e-")
+    assert f"E_x at the default budget is off by about {rel} of its value" in _flat("billiard.md")
 
 
 def test_the_route3_scan_against_the_figures():
