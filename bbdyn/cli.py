@@ -20,6 +20,8 @@ import os
 import signal
 import sys
 
+from bbdyn.sources import refresh_kernel_caches
+
 #: subcommand name -> module under bbdyn.commands
 COMMANDS = {
     "tongues": "tongues",
@@ -136,6 +138,7 @@ def main(argv: list[str] | None = None) -> int:
     try:
         try:
             args = build_parser().parse_args(argv)
+            refresh_kernel_caches()  # kernels compiled from other source are not reused
             return int(args._run(args) or 0)
         finally:  # also after --help: a closed pipe fails here, not at interpreter exit
             sys.stdout.flush()

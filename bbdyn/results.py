@@ -42,11 +42,14 @@ _REGISTRY: dict[str, type[Result]] = {}
 
 
 def make_meta(params=None, seed=None, wall_s=None, **extra: Any) -> dict[str, Any]:
-    """Metadata common to all results: parameters, seed, version, run time, machine."""
+    """Metadata common to all results: parameters, seed, version and source digest
+    (``bbdyn.sources.package_digest``), run time, machine."""
     from bbdyn import __version__
+    from bbdyn.sources import package_digest
 
     meta: dict[str, Any] = {
         "bbdyn_version": __version__,
+        "bbdyn_source": package_digest(),
         "created_utc": _dt.datetime.now(_dt.UTC).isoformat(timespec="seconds"),
         "python": platform.python_version(),
         "machine": platform.machine(),

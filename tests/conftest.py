@@ -1,31 +1,24 @@
 """Shared test set-up: a numba cache keyed on the kernel sources, hypothesis profiles, fixtures."""
 
-import hashlib
 import os
 import tempfile
 from pathlib import Path
+
+from bbdyn.sources import defines_kernels, digest_of, kernel_digest
 
 REPO = Path(__file__).resolve().parent.parent
 
 
 def numba_source_key(repo: Path) -> str:
-    """Hash of every source numba compiles with a cache: ``bbdyn/core/`` and any other module of
-    ``bbdyn/`` or ``tests/`` that uses ``@njit`` (16 hex digits).
+    """Key (16 hex digits) of every source numba compiles with a cache: the modules bbdyn's
+    kernels can reach (``bbdyn.sources.kernel_digest``) and the test modules with kernels.
 
     numba's on-disk cache checks only the stamp of the file that defines a kernel, not of the
     functions it inlines or calls from other modules: after such a change it would load a stale
     kernel.  A cache directory per key cannot be stale.
     """
-    files = sorted((repo / "bbdyn" / "core").glob("*.py"))
-    for folder in (repo / "bbdyn", repo / "tests"):
-        files += sorted(
-            p for p in folder.rglob("*.py") if "core" not in p.parts and "@njit" in p.read_text()
-        )
-    digest = hashlib.sha256()
-    for path in files:
-        digest.update(path.relative_to(repo).as_posix().encode() + b"\0")
-        digest.update(path.read_bytes() + b"\0")
-    return digest.hexdigest()[:16]
+    tests = [p for p in (repo / "tests").rglob("*.py") if defines_kernels(p)]
+    return digest_of(tests, repo)[:8] + kernel_digest(repo / "bbdyn")[:8]
 
 
 # Before numba is imported (it reads the variable once); child processes (notebook kernels,

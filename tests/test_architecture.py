@@ -20,6 +20,7 @@ LAYERS = {
         "bbdyn",  # the package itself: Params and the version
         "bbdyn.params",
         "bbdyn.results",
+        "bbdyn.sources",
         "bbdyn.billiard",
         "bbdyn.ensemble",
         "bbdyn.diffusion",

@@ -152,12 +152,9 @@ def test_features_do_not_depend_on_threads():
         np.testing.assert_array_equal(a[key], b[key])
 
 
-@pytest.mark.parametrize(("other_phase", "periodic"), [(TWO_PI - 1e-9, True), (math.pi, False)])
-def test_period_1_across_phase_zero(other_phase, periodic):
-    """A 1/1 orbit whose impacts straddle phase 0 (at 1e-9 and 2 pi - 1e-9 rad) is periodic:
-    the phase difference is taken modulo 2 pi.  Control: alternating with pi is not."""
-    params = Params(f=60.0)
-    th = Thresholds()
+def one_particle_buffers(th):
+    """Kernel thresholds of ``th``, a features output row and a ring for one particle, to
+    feed ``core.feature_collision`` by hand."""
     kernel_th = core.FeatureThresholds(th.tiny, th.k_tol, th.kmax, th.hist_width, th.hop_floor)
     out = core.FeatureOut(
         displacement=np.zeros((1, 0)),
@@ -169,7 +166,17 @@ def test_period_1_across_phase_zero(other_phase, periodic):
         mismatch=np.zeros((1, th.pmax)),
         status=np.zeros(1, dtype=np.int64),
     )
-    ring, kp = np.zeros((th.pmax, 3)), params.kernel()
+    return kernel_th, out, np.zeros((th.pmax, 3))
+
+
+@pytest.mark.parametrize(("other_phase", "periodic"), [(TWO_PI - 1e-9, True), (math.pi, False)])
+def test_period_1_across_phase_zero(other_phase, periodic):
+    """A 1/1 orbit whose impacts straddle phase 0 (at 1e-9 and 2 pi - 1e-9 rad) is periodic:
+    the phase difference is taken modulo 2 pi.  Control: alternating with pi is not."""
+    params = Params(f=60.0)
+    th = Thresholds()
+    kernel_th, out, ring = one_particle_buffers(th)
+    kp = params.kernel()
     n_ring = run = 0
     for c in range(40):
         phase = 1e-9 if c % 2 == 0 else other_phase
@@ -190,18 +197,8 @@ def _chatter_features(depth, hop_floor):
     the STICK, as the kernel does wherever its closed-form sum takes over."""
     params = Params(f=60.0)
     th = Thresholds(hop_floor=hop_floor)
-    kernel_th = core.FeatureThresholds(th.tiny, th.k_tol, th.kmax, th.hist_width, th.hop_floor)
-    out = core.FeatureOut(
-        displacement=np.zeros((1, 0)),
-        blocks=np.zeros((1, 1, core.BF_WIDTH)),
-        counts=np.zeros((1, 0), dtype=np.int64),
-        hist=np.zeros((1, int(round(10.0 / th.hist_width)) + 1)),
-        kcount=np.zeros((1, th.kmax + 1)),
-        glob=np.zeros((1, core.G_WIDTH)),
-        mismatch=np.zeros((1, th.pmax)),
-        status=np.zeros(1, dtype=np.int64),
-    )
-    ring, kp = np.zeros((th.pmax, 3)), params.kernel()
+    kernel_th, out, ring = one_particle_buffers(th)
+    kp = params.kernel()
     n_ring = run = 0
     flights = [1.0] + [0.05 * 0.5**k for k in range(depth)]
     kinds = [IMPACT] * len(flights) + [STICK]

@@ -24,7 +24,15 @@ from bbdyn import Params
 from bbdyn.core.flat import flat_run_count
 from bbdyn.core.status import IMPACT, STICK, STUCK_FOREVER, raise_for_status
 from bbdyn.scans.progress import Progress
-from bbdyn.scans.runner import KEY_SCALE, ScanResult, load_scan, point_key, point_seed, run_scan
+from bbdyn.scans.runner import (
+    KEY_SCALE,
+    ScanResult,
+    SourceChangedWarning,
+    load_scan,
+    point_key,
+    point_seed,
+    run_scan,
+)
 
 VALUES = [50.0, 58.0, 60.2, 72.4, 95.0]
 
@@ -271,6 +279,23 @@ def test_fresh_scan_into_existing_folder_is_refused(reference_dir):
 def test_complete_scan_resumes_without_computing(reference_dir, reference):
     again = run_scan(VALUES, synthetic, out_dir=reference_dir, seed=3, progress=False)
     _same(again, reference)
+
+
+def test_resume_by_other_source_warns(tmp_path, reference):
+    """Points computed by two versions of the code are not mixed silently."""
+    import warnings
+
+    out = tmp_path / "scan"
+    run_scan(VALUES[:2], synthetic, out_dir=out, seed=3, workers=1, progress=False)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # the same source: resumed without a word
+        run_scan(VALUES[:2], synthetic, out_dir=out, seed=3, workers=1, progress=False)
+    manifest = json.loads((out / "manifest.json").read_text())
+    manifest["bbdyn_source"] = "0" * 64  # as if begun before an edit of bbdyn
+    (out / "manifest.json").write_text(json.dumps(manifest))
+    with pytest.warns(SourceChangedWarning, match="begun by other bbdyn source"):
+        again = run_scan(VALUES[:2], synthetic, out_dir=out, seed=3, workers=1, progress=False)
+    np.testing.assert_array_equal(again["draws"], reference["draws"][:2])
 
 
 def test_half_written_point_is_computed_again(tmp_path, reference):

@@ -1,6 +1,7 @@
 """Scenes S3, S4, S5 on one shared scan, and the ``bbdyn scan`` command (tiny settings)."""
 
 import json
+import shutil
 
 import matplotlib.pyplot as plt
 import numpy as np
@@ -41,6 +42,20 @@ def test_other_seed_or_setting_gets_its_own_scan(tmp_path):
     folder = scene_folder("diffusion", TINY, 3, tmp_path)
     assert folder != scene_folder("diffusion", TINY, 4, tmp_path)
     assert folder != scene_folder("diffusion", TINY | {"n": 7}, 3, tmp_path)
+
+
+def test_edited_source_gets_its_own_scan(tmp_path, monkeypatch):
+    """Scans computed by other code are not reused: the folder follows bbdyn's source."""
+    import bbdyn.sources
+
+    folder = scene_folder("diffusion", TINY, 3, tmp_path)
+    copy = tmp_path / "bbdyn"
+    shutil.copytree(bbdyn.sources.PACKAGE, copy, ignore=shutil.ignore_patterns("__pycache__"))
+    monkeypatch.setattr(bbdyn.sources, "PACKAGE", copy)
+    assert scene_folder("diffusion", TINY, 3, tmp_path) == folder  # the same source
+    estimator = copy / "diffusion.py"  # not a kernel: the numbers change all the same
+    estimator.write_text(estimator.read_text() + "\n")
+    assert scene_folder("diffusion", TINY, 3, tmp_path) != folder
 
 
 def test_scenes_draw_tongues_and_error_bars(shared):

@@ -3,7 +3,8 @@
 A scene built on a scan (S3-S5, S9/S10, B1, B6) keeps the scan in a folder named
 after the settings that define it, ``<out_dir>/scans/<family>_<digest>``
 (``scene_folder``), so scenes with the same setting share one scan, an interrupted
-scene resumes, and a new bbdyn version never reuses old numbers.  ``FAMILIES`` lists
+scene resumes, and changed code (a new version, or an edited source tree) never reuses
+old numbers.  ``FAMILIES`` lists
 which settings define each family's scan; ``diffusion_scan`` and ``gk_scene_scan`` load
 or compute (resume) the two scans that several scenes share.
 """
@@ -30,18 +31,20 @@ FAMILIES = {
 def scene_folder(family: str, settings: dict, seed: int, out_dir=None) -> Path:
     """Folder of the scan of a scene setting: ``<out_dir>/scans/<family>_<digest>``.
 
-    The digest covers ``settings[k]`` for the keys ``FAMILIES[family]``, the seed and the
-    package version.  ``out_dir`` defaults to ``$BBDYN_CACHE`` or ``~/.cache/bbdyn``;
-    ``settings["scan_dir"]`` names a folder explicitly.
+    The digest covers ``settings[k]`` for the keys ``FAMILIES[family]``, the seed, the
+    package version and the digest of bbdyn's source (``bbdyn.sources.package_digest``).
+    ``out_dir`` defaults to ``$BBDYN_CACHE`` or ``~/.cache/bbdyn``; ``settings["scan_dir"]``
+    names a folder explicitly.
     """
     from bbdyn import __version__
+    from bbdyn.sources import package_digest
 
     if settings.get("scan_dir"):
         return Path(settings["scan_dir"])
     if out_dir is None:
         out_dir = os.environ.get("BBDYN_CACHE", Path.home() / ".cache" / "bbdyn")
     defining = {k: settings.get(k) for k in FAMILIES[family]}
-    defining |= {"seed": seed, "version": __version__}
+    defining |= {"seed": seed, "version": __version__, "source": package_digest()}
     digest = hashlib.sha256(json.dumps(defining, sort_keys=True).encode()).hexdigest()[:12]
     return Path(out_dir) / "scans" / f"{family}_{digest}"
 

@@ -59,6 +59,7 @@ from bbdyn.scans.progress import Progress, progress_stream
 __all__ = [
     "KEY_SCALE",
     "DamagedPointWarning",
+    "SourceChangedWarning",
     "ScanBusyError",
     "ScanStorageError",
     "SchedulerUnreachableError",
@@ -96,6 +97,10 @@ class SchedulerUnreachableError(OSError):
 
 class DamagedPointWarning(UserWarning):
     """A stored point was damaged or did not belong to the scan; it is computed again."""
+
+
+class SourceChangedWarning(UserWarning):
+    """A scan is resumed by other bbdyn source than the one that began it."""
 
 
 # ---- seeds and file names -------------------------------------------------------------------
@@ -293,6 +298,14 @@ def _prepare_out_dir(out_dir: Path, manifest: dict[str, Any], resume: bool) -> N
             raise ValueError(
                 f"{out_dir} holds a different scan (differs in: {', '.join(differ)}); "
                 "resume it with the same values, seed and compute, or choose a new out_dir"
+            )
+        if old.get("bbdyn_source", manifest["bbdyn_source"]) != manifest["bbdyn_source"]:
+            warnings.warn(
+                f"{out_dir} was begun by other bbdyn source (digest {old['bbdyn_source'][:12]}, "
+                f"now {manifest['bbdyn_source'][:12]}): its points mix two versions of the code; "
+                "choose a new out_dir for numbers from one",
+                SourceChangedWarning,
+                stacklevel=4,
             )
         # leftovers of writes cut short by a crash; the point is simply computed again
         with _writing(out_dir):
