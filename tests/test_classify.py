@@ -228,11 +228,12 @@ def test_attractor_energies_are_physical_time_averages():
 def test_attractor_D_equals_simulate_D_on_the_same_ensemble(capsys):
     """85.2 Hz, one attractor holding the whole ensemble: classify's D and its windows are
     simulate's numbers (same seed, same particles, same estimator); energies agree within
-    errors (simulate over the same window)."""
-    args = ["--n", "16", "--t", "4", "--seed", "1", "--json", "--threads", "1"]
+    errors (simulate over the same window).  8 s: in 4 s a particle may not have settled (one
+    of these 16 had not, after a change of the kernel in the last bits)."""
+    args = ["--n", "16", "--t", "8", "--seed", "1", "--json", "--threads", "1"]
     assert main(["classify", "85.2", *args]) == 0
     c = json.loads(capsys.readouterr().out)
-    assert main(["simulate", "--f", "85.2", *args, "--transient", "2"]) == 0
+    assert main(["simulate", "--f", "85.2", *args, "--transient", "4"]) == 0
     s = json.loads(capsys.readouterr().out)
     (att,) = c["attractors"]
     assert att["fraction"] == 1.0

@@ -141,7 +141,8 @@ def taylor_finish(tau, G, Gp, Fp, sn, cs, xi, vx, room, kp):
       below eps ``|G'_max|`` (the root moves by less than eps u_max / 5), the arc's is below
       eps ``|G'_max|`` tau / 2.
 
-    Newton from ``G / |Gp|``.  Returns ``(u, xi_c, F'_c, ok)``: time to the contact (s), its
+    Newton from the root of ``G + Gp u + g_2 u^2 / 2`` where ``g_2 < 0`` (in ``(0, u0]``, ``u0
+    = G / |Gp|``, and closer to the contact: fewer Newton steps), else from ``u0``.  Returns ``(u, xi_c, F'_c, ok)``: time to the contact (s), its
     coordinate (mm), the vertical velocity relative to the floor there (mm/s); ``ok = False``
     when a condition fails (the search then goes on with safe steps).
     """
@@ -161,7 +162,8 @@ def taylor_finish(tau, G, Gp, Fp, sn, cs, xi, vx, room, kp):
     N = drive_degree(aw, x, EPS * slope)
     if not (N > 0 and arc_remainder(vx, u_max, kp) <= 0.5 * EPS * slope * tau):
         return fail
-    t = u0
+    # the quadratic's root (no cancellation: Gp < 0), closer than u0 by O(g_3 u^3)
+    t = 2.0 * G / (math.sqrt(Gp * Gp - 2.0 * g2 * G) - Gp) if g2 < 0.0 else u0
     for _ in range(TAYLOR_NEWTON_MAX):
         P, dP = gap_series(t, G, Gp, g2, g3, g4, sn, cs, A, w, N)
         step = P / dP
