@@ -265,14 +265,15 @@ def tiny_hop(sn, cs, xi0, S0, vx, vyrel, Gp, kp):
     t = tau0
     for _ in range(TAYLOR_NEWTON_MAX):
         P, dG = gap_series(t, 0.0, Gp, g2, g3, g4, sn, cs, A, w, N)
-        Q = P / t
-        dQ = (dG - Q) / t
-        step = Q / dQ
+        # Q = P / t, t^2 Q' = dG t - P: the step Q / Q' with one division
+        t_old = t
+        t2_dQ = dG * t - P
+        step = P * t / t2_dQ
         t -= step
         # Newton leaves an error of about |Q'' / 2 Q'| step^2; |Q''| <= 2 |q2| + 6 |q3| t +
         # A w^3 w t (the drive's tail's is below A w^4 t / 9 for w t < 1): stop once negligible
         curv = 2.0 * abs(q2) + 6.0 * abs(q3) * t + aw * w * w * w * t
-        if step * step * curv <= TAYLOR_NEWTON_REL * t * abs(dQ):
+        if step * step * curv * (t_old * t_old) <= TAYLOR_NEWTON_REL * t * abs(t2_dQ):
             break
     else:
         return fail

@@ -141,10 +141,11 @@ def taylor_finish(tau, G, Gp, Fp, sn, cs, xi, vx, room, kp):
       below eps ``|G'_max|`` (the root moves by less than eps u_max / 5), the arc's is below
       eps ``|G'_max|`` tau / 2.
 
-    Newton from the root of ``G + Gp u + g_2 u^2 / 2`` where ``g_2 < 0`` (in ``(0, u0]``, ``u0
-    = G / |Gp|``, and closer to the contact: fewer Newton steps), else from ``u0``.  Returns ``(u, xi_c, F'_c, ok)``: time to the contact (s), its
-    coordinate (mm), the vertical velocity relative to the floor there (mm/s); ``ok = False``
-    when a condition fails (the search then goes on with safe steps).
+    Newton from the root of ``G + Gp u + g_2 u^2 / 2`` where ``g_2 < 0`` (in ``(0, u0]``,
+    ``u0 = G / |Gp|``, and closer to the contact: fewer Newton steps), else from ``u0``.
+    Returns ``(u, xi_c, F'_c, ok)``: time to the contact (s), its coordinate (mm), the
+    vertical velocity relative to the floor there (mm/s); ``ok = False`` when a condition
+    fails (the search then goes on with safe steps).
     """
     A, w = kp.A, kp.w
     aw = A * w
