@@ -16,6 +16,7 @@ a script that edits bbdyn and then calls kernels directly calls it itself.
 
 from __future__ import annotations
 
+import functools
 import hashlib
 import importlib
 import os
@@ -47,9 +48,18 @@ def defines_kernels(path: Path) -> bool:
 
 
 def package_digest(package: Path | None = None) -> str:
-    """Digest of every module of the package (``PACKAGE``, bbdyn's own folder, by default)."""
+    """Digest of every module of the package; by default of ``PACKAGE``, bbdyn's own folder,
+    read once per process (the code a process runs is the code it imported)."""
+    if package is None and PACKAGE == Path(__file__).resolve().parent:
+        return loaded_package_digest()
     package = package or PACKAGE
     return digest_of(package.rglob("*.py"), package)
+
+
+@functools.cache
+def loaded_package_digest() -> str:
+    """``package_digest`` of bbdyn's own folder, computed at the first call (about 4 ms)."""
+    return digest_of(PACKAGE.rglob("*.py"), PACKAGE)
 
 
 def kernel_files(package: Path | None = None) -> list[Path]:
