@@ -141,3 +141,72 @@ def test_the_scan_with_converged_cycles_fast_forwarded():
     assert f"to {new[f]:.1f} s" in flat
     assert f"The route is worth about {100 * (1 - scan['cpu_s'] / before['cpu_s']):.0f} %" in flat
     assert f"({wall['wall_s']:.0f} s now, {wall['wall_s'] / 600:.2f} times too long)" in flat
+
+
+def test_the_scan_with_newton_from_the_quadratic_root():
+    """docs/benchmarks.md on 2813441: the interleaved kernel and bench runs, the full scan's
+    times against 323a012 (compilation, fast-forward luck, the machine's drift) and its
+    agreement with S3_full, every number from the committed files."""
+    import json
+
+    from bbdyn.scenes.b2_scan_cost import measured_speedup_table
+
+    m = load_benchmark("scan_compare")
+    folder = ROOT / "docs" / "scan_compare"
+    text = (ROOT / "docs" / "benchmarks.md").read_text()
+    flat = " ".join(text.split())
+    load = lambda name: json.loads((folder / name).read_text())  # noqa: E731
+    new, old = load("full_scan_2813441.json"), load("full_scan_323a012.json")
+    wall = load("full_scan_2813441_wall.json")
+    assert wall["scan"] == "docs/scan_compare/full_scan_2813441.json"
+    assert f"{wall['wall_s']:.0f} s wall and {new['cpu_s']:.0f} s of CPU time" in flat
+    assert f"the scan takes {wall['wall_s'] / 60:.0f} minutes on this machine" in flat
+    assert measured_speedup_table(old["points"], new["points"]) in text
+    kernel = load("kernel_buffers_323a012_3b612d9.json")
+    assert load_benchmark("kernel_buffers").doc_table(kernel) in text
+    ratios = [r["ratio"] for r in kernel["results"]]
+    assert f"hide the {100 * (min(ratios) - 1):.0f}-{100 * (max(ratios) - 1):.0f} % of" in flat
+    bench = json.loads((ROOT / "docs" / "bench" / "bench_trees_356ac1d_2813441.json").read_text())
+    trees = load_benchmark("bench_trees")
+    for target in ("flat", "billiard"):
+        assert trees.doc_table(bench, target) in text
+    assert bench["flat"][0]["ratio"] < 1.0  # "the flat ball does not gain"
+    speeds = [bench[t][i]["2813441"]["speed"] for t, i in (("flat", 0), ("billiard", 0),
+                                                            ("billiard", 1))]  # fmt: skip
+    assert speeds[0] < 1e7 and max(speeds[1:]) < 8e6
+    assert (
+        "out of reach: {:.3g} impacts/s against 1e7 for the flat ball, {:.3g} collisions/s "
+        "for one billiard flight and {:.3g} in a continuous run".format(*speeds)
+    ) in flat
+    # the compilation in the first point of each worker, and the rest of the scan
+    o = {p["f"]: p["cpu_s"] for p in old["points"]}
+    n = {p["f"]: p["cpu_s"] for p in new["points"]}
+    assert (f"took {n[49.8]:.1f} and {n[50.0]:.1f} s against {o[49.8]:.1f} and {o[50.0]:.1f} s "
+            "with a warm cache") in flat  # fmt: skip
+    rest = [sum(v for f, v in d.items() if f not in (49.8, 50.0)) for d in (n, o)]
+    assert rest[0] > rest[1]  # "not faster"
+    assert f"the scan took {rest[0]:.0f} s of CPU time against {rest[1]:.0f} s: not faster" in flat
+    assert (f"70.2 Hz took {n[70.2]:.1f} s against {o[70.2]:.1f} s, "
+            f"63 Hz {n[63.0]:.1f} s against {o[63.0]:.1f} s") in flat  # fmt: skip
+    # the machine's drift: 323a012's kernel rerun on the day of this scan, the same numbers
+    drift = load("day_drift_323a012.json")
+    before = {p["f"]: p for p in old["points"]}
+    warm = [p for p in drift["points"] if p["f"] in (70.4, 70.6, 85.4, 85.6)]
+    assert len(warm) == 4
+    for p in drift["points"]:
+        assert all(p[k] == before[p["f"]][k] for k in ("D", "E", "E_x"))
+    r = [p["cpu_s"] / before[p["f"]]["cpu_s"] for p in warm]
+    assert f"took {min(r):.3f} to {max(r):.3f} times as long" in flat
+    # agreement with S3_full
+    saved = load("full_scan_compare_2813441.json")
+    assert m.doc_table(saved) in text
+    again = m.z_scores(m.load_old(ROOT / "docs" / "figures" / "S3_full.npz"),
+                       m.load_new(folder / "full_scan_2813441.json"))  # fmt: skip
+    f = again["f"]
+    beyond = [(name, x, z) for name in ("D", "E", "E_x")
+              for x, z in zip(f, again[name]["z"], strict=True) if abs(z) > 3]  # fmt: skip
+    assert [(name, x) for name, x, _ in beyond] == [("E", 73.0)]
+    assert f"(E at 73 Hz, z = {beyond[0][2]:.1f})" in flat
+    for name in ("D", "E", "E_x"):
+        assert {k: v for k, v in again[name].items() if k != "z"} == saved[name]
+        assert np.abs(again[name]["z"][f < 57.0]).max() < (1.1 if name == "D" else 1e-4)
