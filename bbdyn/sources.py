@@ -49,17 +49,16 @@ def defines_kernels(path: Path) -> bool:
 
 def package_digest(package: Path | None = None) -> str:
     """Digest of every module of the package; by default of ``PACKAGE``, bbdyn's own folder,
-    read once per process (the code a process runs is the code it imported)."""
-    if package is None and PACKAGE == Path(__file__).resolve().parent:
+    read once per process (about 4 ms; the code a process runs is the code it imported)."""
+    if package is None:
         return loaded_package_digest()
-    package = package or PACKAGE
     return digest_of(package.rglob("*.py"), package)
 
 
 @functools.cache
 def loaded_package_digest() -> str:
-    """``package_digest`` of bbdyn's own folder, computed at the first call (about 4 ms)."""
-    return digest_of(PACKAGE.rglob("*.py"), PACKAGE)
+    """``package_digest(PACKAGE)``, computed at the first call."""
+    return package_digest(PACKAGE)
 
 
 def kernel_files(package: Path | None = None) -> list[Path]:

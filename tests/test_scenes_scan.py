@@ -1,6 +1,7 @@
 """Scenes S3, S4, S5 on one shared scan, and the ``bbdyn scan`` command (tiny settings)."""
 
 import json
+import os
 import shutil
 
 import matplotlib.pyplot as plt
@@ -44,18 +45,36 @@ def test_other_seed_or_setting_gets_its_own_scan(tmp_path):
     assert folder != scene_folder("diffusion", TINY | {"n": 7}, 3, tmp_path)
 
 
-def test_edited_source_gets_its_own_scan(tmp_path, monkeypatch):
-    """Scans computed by other code are not reused: the folder follows bbdyn's source."""
+def test_edited_source_gets_its_own_scan(tmp_path):
+    """Scans computed by other code are not reused: the folder follows bbdyn's source (a copy
+    of the package, in fresh processes, before and after an edit of a module)."""
+    import subprocess
+    import sys
+
     import bbdyn.sources
 
-    folder = scene_folder("diffusion", TINY, 3, tmp_path)
-    copy = tmp_path / "bbdyn"
-    shutil.copytree(bbdyn.sources.PACKAGE, copy, ignore=shutil.ignore_patterns("__pycache__"))
-    monkeypatch.setattr(bbdyn.sources, "PACKAGE", copy)
-    assert scene_folder("diffusion", TINY, 3, tmp_path) == folder  # the same source
-    estimator = copy / "diffusion.py"  # not a kernel: the numbers change all the same
+    src = tmp_path / "src"
+    shutil.copytree(
+        bbdyn.sources.PACKAGE, src / "bbdyn", ignore=shutil.ignore_patterns("__pycache__")
+    )
+    code = (
+        "import sys; from bbdyn.scans.cache import scene_folder; import bbdyn; "
+        "assert bbdyn.__file__.startswith(sys.argv[1]); "
+        f"print(scene_folder('diffusion', {TINY!r}, 3, sys.argv[1]))"
+    )
+    env = dict(os.environ, PYTHONPATH=str(src))
+
+    def folder():
+        run = [sys.executable, "-c", code, str(src)]
+        out = subprocess.run(run, env=env, cwd=tmp_path, capture_output=True, text=True)
+        assert out.returncode == 0, out.stderr
+        return out.stdout.strip()
+
+    first = folder()
+    assert folder() == first  # the same source, the same scan
+    estimator = src / "bbdyn" / "diffusion.py"  # not a kernel: the numbers change all the same
     estimator.write_text(estimator.read_text() + "\n")
-    assert scene_folder("diffusion", TINY, 3, tmp_path) != folder
+    assert folder() != first
 
 
 def test_scenes_draw_tongues_and_error_bars(shared):
