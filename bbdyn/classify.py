@@ -171,6 +171,14 @@ class Thresholds:
         if not self.k_tol < 0.5:
             raise ValueError(f"k_tol must be < 0.5 periods, got {self.k_tol}")
 
+    def kernel(self):
+        """The measurement thresholds as the features kernel takes them
+        (``core.features.FeatureThresholds``)."""
+        from bbdyn.core.features import FeatureThresholds
+
+        return FeatureThresholds(self.tiny, self.k_tol, int(self.kmax), self.hist_width,
+                                 self.hop_floor)  # fmt: skip
+
 
 # ---- features ------------------------------------------------------------------------------
 def _states_from(params, boxes, n, seed, initial, start_phase):
@@ -294,9 +302,7 @@ def trajectory_features(
     s_periods, s_phase = periods_phase(sample_times, params.f)
     end = np.array([v[0] for v in periods_phase(np.array([t]), params.f)])
     times = RunTimes(end[0], end[1], p0, L, int(blocks), s_periods, s_phase)
-    feature_th = core.FeatureThresholds(
-        th.tiny, th.k_tol, int(th.kmax), th.hist_width, th.hop_floor
-    )
+    feature_th = th.kernel()
     buffers = core.FeatureOut(**out)
 
     def advance(budget):

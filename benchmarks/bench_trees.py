@@ -22,26 +22,21 @@ import sys
 import tempfile
 from pathlib import Path
 
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import chatter_takeover  # noqa: E402  (tree_env: a run on a source tree, checked)
+import kernel_buffers  # noqa: E402  (tree_label)
+
 SPEED = {"flat": "impacts_per_s", "billiard": "collisions_per_s"}
-
-
-def tree_name(tree: str) -> str:
-    """The short commit of a git worktree, with ``+dirty`` if its ``bbdyn/`` differs from it."""
-    git = ["git", "-C", tree]
-    commit = subprocess.run(git + ["rev-parse", "--short", "HEAD"], capture_output=True,
-                            text=True, check=True).stdout.strip()  # fmt: skip
-    dirty = subprocess.run(git + ["status", "--porcelain", "--", "bbdyn"], capture_output=True,
-                           text=True, check=True).stdout.strip()  # fmt: skip
-    return commit + ("+dirty" if dirty else "")
 
 
 def bench_rows(tree: str, target: str, quick: bool, folder: Path) -> list[dict]:
     """The rows of one ``bbdyn bench TARGET --json`` run on ``tree``."""
-    env = dict(os.environ, PYTHONPATH=os.path.abspath(tree),
-               NUMBA_CACHE_DIR=str(folder / f"numba_{Path(tree).name}"))  # fmt: skip
+    cache = folder / f"numba_{Path(tree).name}"
+    cache.mkdir(exist_ok=True)
+    env = chatter_takeover.tree_env(tree, str(cache))  # checks bbdyn comes from ``tree``
     png = folder / f"{target}_{Path(tree).name}.png"
     cmd = [sys.executable, "-m", "bbdyn", "bench", target, "--json", "--out", str(png)]
-    out = subprocess.run(cmd + (["--quick"] if quick else []), env=env, cwd=folder,
+    out = subprocess.run(cmd + (["--quick"] if quick else []), env=env, cwd=cache,
                          capture_output=True, text=True, check=True)  # fmt: skip
     return json.loads(out.stdout[: out.stdout.rindex("]") + 1])
 
@@ -100,7 +95,7 @@ def main(argv=None) -> int:
     parser.add_argument("--quick", action="store_true")
     parser.add_argument("--json", help="save the report here")
     args = parser.parse_args(argv)
-    names = {args.old: tree_name(args.old), args.new: tree_name(args.new)}
+    names = {tree: kernel_buffers.tree_label(tree) for tree in (args.old, args.new)}
     report = {"trees": list(names.values()), "repeats": args.repeats, "quick": args.quick}
     with tempfile.TemporaryDirectory() as tmp:
         for target in args.target:

@@ -155,7 +155,7 @@ def test_features_do_not_depend_on_threads():
 def one_particle_buffers(th):
     """Kernel thresholds of ``th``, a features output row and a ring for one particle, to
     feed ``core.feature_collision`` by hand."""
-    kernel_th = core.FeatureThresholds(th.tiny, th.k_tol, th.kmax, th.hist_width, th.hop_floor)
+    kernel_th = th.kernel()
     out = core.FeatureOut(
         displacement=np.zeros((1, 0)),
         blocks=np.zeros((1, 1, core.BF_WIDTH)),

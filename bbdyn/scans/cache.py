@@ -4,9 +4,9 @@ A scene built on a scan (S3-S5, S9/S10, B1, B6) keeps the scan in a folder named
 after the settings that define it, ``<out_dir>/scans/<family>_<digest>``
 (``scene_folder``), so scenes with the same setting share one scan, an interrupted
 scene resumes, and changed code (a new version, or an edited source tree) never reuses
-old numbers.  ``FAMILIES`` lists
-which settings define each family's scan; ``diffusion_scan`` and ``gk_scene_scan`` load
-or compute (resume) the two scans that several scenes share.
+old numbers.  ``FAMILIES`` lists which settings define each family's scan;
+``diffusion_scan`` and ``gk_scene_scan`` load or compute (resume) the two scans that
+several scenes share.
 """
 
 from __future__ import annotations
