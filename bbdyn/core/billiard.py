@@ -23,7 +23,8 @@ b(xi))`` (the floor replaced by the plane ``y_p + h``, i.e. the flat ball's gap
 minus a constant) is a lower bound of ``G`` with no kinks: its safe steps may
 jump over many tiles.  Each step is the larger of the envelope step and the
 tile step capped at the crossing.  The interval in which the particle is above
-``A + h`` (the floor's highest point ever) is skipped analytically.
+``A + h`` (the floor's highest point ever) is skipped analytically: a step ending
+inside it goes on to its end before the gap is evaluated.
 
 Safe steps (the lower bound).  Within one tile segment ``G`` is smooth and
 
@@ -373,31 +374,8 @@ def flight_search(phase, sn, cs, xi0, vx, vyrel, kp, cubic):
         # quadratic bound M here would crawl (~1/sqrt(theta_e - phase) steps).
         tau, vrel_minus, status, n_evals = flat_flight_evals(phase, vyrel, kp)
         return tau, k_base, xi0, vrel_minus, n_evals, status
-    if theta_r <= phase < theta_e:
-        # G'' > 0 on a tile until theta_e and G(0) = 0, G'(0) >= 0: no contact before
-        # theta_e or the first tile crossing, whichever comes first.
-        if Gp < 0.0:
-            return 0.0, k_base, xi0, vyrel, 0, BAD_STATE
-        tau = min((theta_e - phase) / w, tc)
-        if tau == tc:
-            k += direction
-        G, Gp, G_env, G_envp, xi, sn_t, cn_t = segment_gap_phase(
-            tau, k, sn, cs, xi0, S0, vx, vyrel, kp
-        )
-    elif Gp == 0.0:
-        tau = tangent_departure(sn, xi0, S0, vx, tc, kp)
-        if tau == 0.0:
-            return 0.0, k_base, xi0, vyrel, 0, BAD_STATE
-        if tau == tc:
-            k += direction
-        G, Gp, G_env, G_envp, xi, sn_t, cn_t = segment_gap_phase(
-            tau, k, sn, cs, xi0, S0, vx, vyrel, kp
-        )
-    elif not Gp > 0.0:
-        return 0.0, k_base, xi0, vyrel, 0, BAD_STATE
-    tc = max(crossing_time(xi0, k, vx, d), tau)
-
-    # Interval in which the particle is above A + h, the floor's highest point ever.
+    # Interval in which the particle is above A + h, the floor's highest point ever: no
+    # contact there, so a step that ends inside it goes on to its end unevaluated.
     v_abs = vyrel - kp.A * w * cs
     h_above = kp.A * (1.0 + sn) + lift
     tau_up = math.inf
@@ -407,14 +385,35 @@ def flight_search(phase, sn, cs, xi0, vx, vyrel, kp, cubic):
         tau_down = (v_abs + math.sqrt(disc)) / g
         tau_up = 2.0 * h_above / (g * tau_down)
 
+    if theta_r <= phase < theta_e:
+        # G'' > 0 on a tile until theta_e and G(0) = 0, G'(0) >= 0: no contact before
+        # theta_e or the first tile crossing, whichever comes first.
+        if Gp < 0.0:
+            return 0.0, k_base, xi0, vyrel, 0, BAD_STATE
+        tau = min((theta_e - phase) / w, tc)
+        if tau == tc:
+            k += direction
+    elif Gp == 0.0:
+        tau = tangent_departure(sn, xi0, S0, vx, tc, kp)
+        if tau == 0.0:
+            return 0.0, k_base, xi0, vyrel, 0, BAD_STATE
+        if tau == tc:
+            k += direction
+    elif not Gp > 0.0:
+        return 0.0, k_base, xi0, vyrel, 0, BAD_STATE
+    tc = max(crossing_time(xi0, k, vx, d), tau)
+
+    known = tau == 0.0  # the gap is known at tau: G = 0 at the start, else evaluated below
     for n in range(ROOT_MAX_STEPS):
-        if tau_up < tau < tau_down:
-            tau = tau_down
-            k = tile_offset(xi0, vx, tau, d)
+        if not known:
+            if tau_up < tau < tau_down:
+                tau = tau_down
+                k = tile_offset(xi0, vx, tau, d)
             G, Gp, G_env, G_envp, xi, sn_t, cn_t = segment_gap_phase(
                 tau, k, sn, cs, xi0, S0, vx, vyrel, kp
             )
             tc = max(crossing_time(xi0, k, vx, d), tau)
+        known = False
         if G <= 0.0 and tau > 0.0:
             return tau, k + k_base, xi, G_envp, n, OK
         if cubic and Gp < 0.0 and w * G < (-0.5 * TAYLOR_MAX_SPAN) * Gp:
@@ -450,10 +449,6 @@ def flight_search(phase, sn, cs, xi0, vx, vyrel, kp, cubic):
                 xi = min(max(xi0 + (vx * tau_next - k * d), -half), half)
                 return tau_next, k + k_base, xi, Fp, n + 1, OK
             tau = tau_next
-        G, Gp, G_env, G_envp, xi, sn_t, cn_t = segment_gap_phase(
-            tau, k, sn, cs, xi0, S0, vx, vyrel, kp
-        )
-        tc = max(crossing_time(xi0, k, vx, d), tau)
     return tau, k + k_base, xi, G_envp, ROOT_MAX_STEPS, ROOT_NOT_CONVERGED
 
 
