@@ -25,7 +25,7 @@ from bbdyn.core.billiard import crossing_time, segment_gap_phase, tile_offset
 from bbdyn.core.floor import arc_root
 from bbdyn.core.plate import sin_cos
 from bbdyn.core.status import OK
-from bbdyn.core.taylor import taylor_finish
+from bbdyn.core.taylor import drive_tail, taylor_finish
 from bbdyn.core.tolerances import EPS
 
 FREQS = (50.2, 70.2, 85.2)
@@ -85,14 +85,14 @@ def _finish_before(starts, taus, ks, before, kp, out):
             out[j, 0] = -1.0
             continue
         sn, cs = sin_cos(phase)
-        G, Gp, _, Fp, xi, sn_t, cn_t = segment_gap_phase(
+        G, Gp, _, Fp, xi, S, sn_t, cn_t = segment_gap_phase(
             tau, ks[j], sn, cs, xi0, arc_root(xi0, kp), vx, vyrel, kp
         )
         if not (G > 0.0 and Gp < 0.0):
             out[j, 0] = -1.0
             continue
         room = crossing_time(xi0, ks[j], vx, kp.d) - tau
-        u, xi_c, Fp_c, ok = taylor_finish(tau, G, Gp, Fp, sn_t, cn_t, xi, vx, room, kp)
+        u, xi_c, Fp_c, ok = taylor_finish(tau, G, Gp, Fp, sn_t, cn_t, xi, S, vx, room, kp)
         out[j, 0], out[j, 1], out[j, 2], out[j, 3] = 1.0 if ok else 0.0, tau + u, xi_c, Fp_c
 
 
@@ -128,7 +128,9 @@ def test_taylor_finish_refuses_what_it_cannot_prove():
     sn, cs = math.sin(1.0), math.cos(1.0)
 
     def attempt(tau, G, Gp, room=1.0, phase_sin=sn, phase_cos=cs, vx=0.5):
-        return taylor_finish(tau, G, Gp, Gp, phase_sin, phase_cos, 0.2, vx, room, kp)[3]
+        return taylor_finish(
+            tau, G, Gp, Gp, phase_sin, phase_cos, 0.2, arc_root(0.2, kp), vx, room, kp
+        )[3]
 
     assert attempt(0.01, 1e-3, -20.0)  # a transversal landing well on the arc: solved
     assert not attempt(0.01, 1e-3, -20.0, room=5e-5)  # a wedge before 2 G / |G'|: refused
@@ -155,3 +157,26 @@ def test_random_flights_on_hard_floors(params):
     out = np.zeros((n, 11))
     both_rules(starts, kp, out)
     _check_against_quadratic_search(kp, starts, out)
+
+
+@pytest.mark.parametrize("N", [4, 5, 6, 7, 10, 15, 16])
+def test_drive_tail_is_the_sum_it_stands_for(N):
+    """``drive_tail`` (summed by parity in y^2) against its definition summed in mpmath:
+    ``T = sum_{n=5..N} s_n y^(n-5) / n!``, ``T' = sum s_n y^(n-5) / (n-1)!``, to within the
+    one extra term it may add and a few ulp."""
+    import mpmath
+
+    mpmath.mp.dps = 40
+    rng = np.random.default_rng(N)
+    for _ in range(50):
+        theta, y = rng.uniform(0.0, 2 * math.pi), rng.uniform(-0.6, 0.6)
+        T, Tp = drive_tail.py_func(y, math.sin(theta), math.cos(theta), N)
+        derivs = [mpmath.sin, mpmath.cos, lambda t: -mpmath.sin(t), lambda t: -mpmath.cos(t)]
+        s = [derivs[n % 4](mpmath.mpf(theta)) for n in range(N + 2)]
+        T_ref = sum(s[n] * mpmath.mpf(y) ** (n - 5) / mpmath.factorial(n) for n in range(5, N + 1))
+        Tp_ref = sum(
+            s[n] * mpmath.mpf(y) ** (n - 5) / mpmath.factorial(n - 1) for n in range(5, N + 1)
+        )
+        extra = abs(y) ** (N - 4) / math.factorial(N) if N > 4 else 0.0  # the term of degree N+1
+        assert abs(T - float(T_ref)) <= extra / (N + 1) + 8 * EPS / 120
+        assert abs(Tp - float(Tp_ref)) <= extra + 8 * EPS / 24

@@ -71,7 +71,7 @@ from bbdyn.core.flat import (
     safe_step,
     stick_release,
 )
-from bbdyn.core.floor import arc_root, bounce, floor_drop
+from bbdyn.core.floor import arc_root, bounce, bounce_at, floor_drop
 from bbdyn.core.plate import advance_phase, release_window, sin_cos
 from bbdyn.core.status import (
     BAD_STATE,
@@ -137,9 +137,9 @@ def tile_offset(xi0, vx, tau, d):
 def segment_gap_phase(tau, k, phase_sin, phase_cos, xi0, S0, vx, vyrel, kp):
     """``segment_gap`` and the sine and cosine of the phase reached at ``tau``.
 
-    Returns ``(G, G', G_env, F', xi, sin, cos)``; the phase's sine and cosine come
-    free from the gap's own evaluation (``flat_gap_phase``) and give the local
-    curvature bound ``g + A w^2 sin`` of the cubic safe step.
+    Returns ``(G, G', G_env, F', xi, S, sin, cos)`` with ``S = arc_root(xi)`` (mm); the
+    phase's sine and cosine come free from the gap's own evaluation (``flat_gap_phase``) and
+    give the local curvature bound ``g + A w^2 sin`` of the cubic safe step.
     """
     half = 0.5 * kp.d
     F, Fp, sn, cn = flat_gap_phase(vyrel, kp.g, kp.A, kp.w, phase_sin, phase_cos, tau)
@@ -149,7 +149,7 @@ def segment_gap_phase(tau, k, phase_sin, phase_cos, xi0, S0, vx, vyrel, kp):
     G = F + floor_drop(dx, xi0, xi, S0, S)
     Gp = Fp + vx * xi / S
     G_env = F - xi0 * xi0 / (kp.R + S0)  # h - b(xi0) = xi0^2 / (R + S0)
-    return G, Gp, G_env, Fp, xi, sn, cn
+    return G, Gp, G_env, Fp, xi, S, sn, cn
 
 
 @njit(cache=True, fastmath=FMA, inline="always")
@@ -161,7 +161,7 @@ def segment_gap(tau, k, phase_sin, phase_cos, xi0, S0, vx, vyrel, kp):
     its derivative ``F' = vyrel - g tau - dvel(tau)`` (also the vertical velocity
     relative to the floor) and the local coordinate reached (clamped to the tile).
     """
-    G, Gp, G_env, Fp, xi, _, _ = segment_gap_phase(
+    G, Gp, G_env, Fp, xi, _, _, _ = segment_gap_phase(
         tau, k, phase_sin, phase_cos, xi0, S0, vx, vyrel, kp
     )
     return G, Gp, G_env, Fp, xi
@@ -361,6 +361,7 @@ def flight_search(phase, sn, cs, xi0, vx, vyrel, kp, cubic):
     G_env = -lift
     G_envp = vyrel
     xi = xi0
+    S = S0
     tc = crossing_time(xi0, k, vx, d)
     # Cheap superset of the release window sin(phase) < -1/Gamma before the asin.
     if kp.gamma * sn < -1.0 + 1e-9:
@@ -409,7 +410,7 @@ def flight_search(phase, sn, cs, xi0, vx, vyrel, kp, cubic):
             if tau_up < tau < tau_down:
                 tau = tau_down
                 k = tile_offset(xi0, vx, tau, d)
-            G, Gp, G_env, G_envp, xi, sn_t, cn_t = segment_gap_phase(
+            G, Gp, G_env, G_envp, xi, S, sn_t, cn_t = segment_gap_phase(
                 tau, k, sn, cs, xi0, S0, vx, vyrel, kp
             )
             tc = max(crossing_time(xi0, k, vx, d), tau)
@@ -418,7 +419,7 @@ def flight_search(phase, sn, cs, xi0, vx, vyrel, kp, cubic):
             return tau, k + k_base, xi, G_envp, n, OK
         if cubic and Gp < 0.0 and w * G < (-0.5 * TAYLOR_MAX_SPAN) * Gp:
             u, xi_c, Fp_c, solved = taylor_finish(
-                tau, G, Gp, G_envp, sn_t, cn_t, xi, vx, tc - tau, kp
+                tau, G, Gp, G_envp, sn_t, cn_t, xi, S, vx, tc - tau, kp
             )
             if solved:
                 return tau + u, k + k_base, xi_c, Fp_c, n + 1, OK
@@ -636,15 +637,18 @@ def collide_trig(periods, phase, sn, cs, tile, xi, vx, vyrel, kp):
     """
     half = 0.5 * kp.d
     xi = snap_to_wedge(xi, kp)
-    vx, vyrel, vn, vt = bounce(xi, vx, vyrel, kp)
-    tile, xi, vx, vyrel, vn, vt, ok = wedge_reflect(tile, xi, vx, vyrel, vn, vt, kp)
+    S = arc_root(xi, kp)
+    vx, vyrel, vn, vt = bounce_at(xi, S, vx, vyrel, kp)
+    tile, xi_r, vx, vyrel, vn, vt, ok = wedge_reflect(tile, xi, vx, vyrel, vn, vt, kp)
+    if xi_r != xi:  # reflected onto a neighbour's wedge
+        xi = xi_r
+        S = arc_root(xi, kp)
     g_eff = kp.g + kp.A * kp.w * kp.w * sn
     if not ok or (abs(xi) == half and lands_at_once(periods, phase, vyrel, g_eff, kp)):
         return periods, phase, tile, xi, 0.0, 0.0, STICK, OK, sn, cs
     if not (math.isfinite(vx) and math.isfinite(vyrel)):
         return periods, phase, tile, xi, vx, vyrel, IMPACT, NON_FINITE, sn, cs
     if g_eff > 0.0 and kp.beta < 1.0:
-        S = arc_root(xi, kp)
         g_n = (g_eff * S - vt * vt) / kp.R
         if g_n > 0.0:
             if vn <= 0.0:  # 0, or a rounding of 0 after a tangent wedge reflection

@@ -86,7 +86,13 @@ from bbdyn.core.tolerances import (
 
 @njit(cache=True, fastmath=FMA, inline="always", error_model="numpy")
 def safe_step(G, Gp, M):
-    """Positive root of ``G + Gp s - M s^2 / 2 = 0`` (G >= 0, M > 0), without cancellation."""
+    """Positive root of ``G + Gp s - M s^2 / 2 = 0`` (G >= 0, M > 0), without cancellation.
+
+    At ``G = 0`` (a flight's start) the root is ``(Gp + |Gp|) / M`` with no square root:
+    the same number, since the rounded square root of the rounded ``Gp^2`` is ``|Gp|``.
+    """
+    if G == 0.0:
+        return (Gp + abs(Gp)) / M
     r = math.sqrt(Gp * Gp + 2.0 * M * G)
     if Gp >= 0.0:
         return (Gp + r) / M
@@ -221,7 +227,7 @@ def flat_flight_tol(phase, vrel, kp, step_rel):
             return tau, min(Gp, 0.0), OK, n_evals
         if finish and Gp < 0.0 and w * G < (-0.5 * TAYLOR_MAX_SPAN) * Gp:
             # the billiard's Taylor finish on the flat gap (xi = vx = 0: no arc terms)
-            u, _, Gp_c, solved = taylor_finish(tau, G, Gp, Gp, sn, cn, 0.0, 0.0, math.inf, kp)
+            u, _, Gp_c, solved = taylor_finish(tau, G, Gp, Gp, sn, cn, 0.0, kp.R, 0.0, math.inf, kp)
             if solved:
                 return tau + u, min(Gp_c, 0.0), OK, n_evals + 1
         m = g + aw2 * sn

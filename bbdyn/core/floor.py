@@ -99,7 +99,12 @@ def bounce(xi, vx, vyrel, kp):
         Relative velocity after the contact (mm/s) and its normal and tangential
         components, ``V_n+ = -alpha V_n-`` and ``V_t+ = beta V_t-``.
     """
-    S = arc_root(xi, kp)
+    return bounce_at(xi, arc_root(xi, kp), vx, vyrel, kp)
+
+
+@njit(cache=True, fastmath=FMA, inline="always")
+def bounce_at(xi, S, vx, vyrel, kp):
+    """``bounce`` with ``S = arc_root(xi)`` (mm) already known to the caller."""
     vn, vt = normal_velocity(xi, S, vx, vyrel, kp.R)
     vn = -kp.alpha * vn
     vt = kp.beta * vt

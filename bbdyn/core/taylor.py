@@ -11,7 +11,6 @@ import math
 
 from numba import njit
 
-from bbdyn.core.floor import arc_root
 from bbdyn.core.tolerances import (
     EPS,
     FMA,
@@ -63,12 +62,14 @@ def gap_coefficients(sn, cs, xi, S, vx, kp):
     """
     A, w, R = kp.A, kp.w, kp.R
     aw2 = A * w * w
+    F2 = -kp.g - aw2 * sn
+    if vx == 0.0:  # no arc terms (the flat ball, a release): the same numbers, no division
+        return F2, F2, -aw2 * w * cs, aw2 * w * w * sn
     R2 = R * R
     inv_S = 1.0 / S
     S3 = inv_S * inv_S * inv_S
     S5 = S3 * inv_S * inv_S
     vx2 = vx * vx
-    F2 = -kp.g - aw2 * sn
     g2 = F2 + R2 * vx2 * S3
     g3 = -aw2 * w * cs + 3.0 * R2 * xi * vx2 * vx * S5
     g4 = aw2 * w * w * sn + 3.0 * R2 * (R2 + 4.0 * xi * xi) * vx2 * vx2 * S5 * inv_S * inv_S
@@ -79,6 +80,8 @@ def gap_coefficients(sn, cs, xi, S, vx, kp):
 def gap_jerk_bound(vx, kp):
     """Bound (mm/s^3) of the gap's third derivative on a tile: ``A w^3 + 3 R^2 h |vx|^3 /
     c0^5`` (h = d/2)."""
+    if vx == 0.0:
+        return kp.A * kp.w**3
     c0 = kp.c0
     c0_2 = c0 * c0
     avx = abs(vx)
@@ -119,13 +122,14 @@ def series_rate(t, Fp, F2, sn, cs, A, w, N):
 
 
 @njit(cache=True, fastmath=FMA, inline="always")
-def taylor_finish(tau, G, Gp, Fp, sn, cs, xi, vx, room, kp):
+def taylor_finish(tau, G, Gp, Fp, sn, cs, xi, S, vx, room, kp):
     """The contact of a descending flight from the Taylor polynomial of its gap.
 
     ``tau`` s into a flight the gap is ``G > 0`` (mm) and falls, ``Gp = G' < 0`` (mm/s);
     ``sn, cs`` are the sine and cosine of the phase reached, ``xi`` (mm) the point over the
-    tile, ``room`` (s) the time to the next tile crossing, ``Fp = F'`` (mm/s).  Over ``u``
-    more seconds, with ``g_n`` of ``gap_coefficients`` there (see ``tiny_hop``),
+    tile and ``S = arc_root(xi)`` (mm, the caller's), ``room`` (s) the time to the next tile
+    crossing, ``Fp = F'`` (mm/s).  Over ``u`` more seconds, with ``g_n`` of
+    ``gap_coefficients`` there (see ``tiny_hop``),
 
         G(tau + u) = G + Gp u + g_2 u^2/2 + g_3 u^3/6 + g_4 u^4/24
                      + A sum_{n=5..N} s_n (w u)^n / n! + r(u).
@@ -155,7 +159,7 @@ def taylor_finish(tau, G, Gp, Fp, sn, cs, xi, vx, room, kp):
     x = w * u_max
     if not (x < TAYLOR_MAX_SPAN and u_max < room and u_max <= tau):
         return fail
-    F2, g2, g3, g4 = gap_coefficients(sn, cs, xi, arc_root(xi, kp), vx, kp)
+    F2, g2, g3, g4 = gap_coefficients(sn, cs, xi, S, vx, kp)
     K3 = gap_jerk_bound(vx, kp)
     slope = -(Gp + u_max * max(0.0, g2 + K3 * u_max))  # |G'| >= slope on [0, u_max]
     if not slope >= -0.5 * Gp:
