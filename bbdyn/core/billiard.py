@@ -70,6 +70,7 @@ from bbdyn.core.flat import (
     flat_gap_phase,
     safe_step,
     stick_release,
+    time_above,
 )
 from bbdyn.core.floor import arc_root, bounce, bounce_at, floor_drop
 from bbdyn.core.plate import advance_phase, release_window, sin_cos
@@ -377,14 +378,7 @@ def flight_search(phase, sn, cs, xi0, vx, vyrel, kp, cubic):
         return tau, k_base, xi0, vrel_minus, n_evals, status
     # Interval in which the particle is above A + h, the floor's highest point ever: no
     # contact there, so a step that ends inside it goes on to its end unevaluated.
-    v_abs = vyrel - kp.A * w * cs
-    h_above = kp.A * (1.0 + sn) + lift
-    tau_up = math.inf
-    tau_down = -math.inf
-    disc = v_abs * v_abs - 2.0 * g * h_above
-    if v_abs > 0.0 and disc > 0.0:
-        tau_down = (v_abs + math.sqrt(disc)) / g
-        tau_up = 2.0 * h_above / (g * tau_down)
+    tau_up, tau_down = time_above(vyrel - kp.A * w * cs, kp.A * (1.0 + sn) + lift, g)
 
     if theta_r <= phase < theta_e:
         # G'' > 0 on a tile until theta_e and G(0) = 0, G'(0) >= 0: no contact before

@@ -144,6 +144,18 @@ def cubic_safe_step(G, Gp, m, M, K):
     return safe_step(G, Gp, min(M, m + K * h * (1.0 / 3.0)))
 
 
+@njit(cache=True, fastmath=FMA, inline="always", error_model="numpy")
+def time_above(v, height, g):
+    """``(tau_up, tau_down)`` (s): when a particle leaving at ``v`` (mm/s, absolute) rises
+    above ``height`` (mm, >= 0) over its start and falls back below it, ``y = v t - g t^2 /
+    2``; ``(inf, -inf)`` if it never does."""
+    disc = v * v - 2.0 * g * height
+    if v > 0.0 and disc > 0.0:
+        tau_down = (v + math.sqrt(disc)) / g
+        return 2.0 * height / (g * tau_down), tau_down
+    return math.inf, -math.inf
+
+
 @njit(cache=True, fastmath=FMA, error_model="numpy")
 def flat_flight_tol(phase, vrel, kp, step_rel):
     """``flat_flight`` with stopping tolerance ``step_rel``, and its gap evaluations.
@@ -206,15 +218,9 @@ def flat_flight_tol(phase, vrel, kp, step_rel):
     elif not vrel > 0.0:
         return 0.0, vrel, BAD_STATE, n_evals
 
-    # Interval in which the particle is above +A, the plate's highest point.
-    v_abs = vrel - A * w * c0
-    h_above = A + A * s0  # +A minus the plate height -A s0 at the start, >= 0
-    tau_up = math.inf
-    tau_down = -math.inf
-    disc = v_abs * v_abs - 2.0 * g * h_above
-    if v_abs > 0.0 and disc > 0.0:
-        tau_down = (v_abs + math.sqrt(disc)) / g
-        tau_up = 2.0 * h_above / (g * tau_down)
+    # Interval in which the particle is above +A, the plate's highest point: no contact there.
+    # +A minus the plate height -A s0 at the start is A (1 + s0) >= 0.
+    tau_up, tau_down = time_above(vrel - A * w * c0, A + A * s0, g)
     if tau > 0.0:
         if tau_up < tau < tau_down:
             tau = tau_down
