@@ -237,6 +237,9 @@ def test_the_scan_with_one_evaluation_fewer_above_the_floor():
     # agreement with S3_full
     beyond = agreement_with_s3_full(m, "cc2e660", text)
     assert [(name, x) for name, x, _ in beyond] == [("E", 77.8), ("E_x", 91.0)]
+    values = 3 * len(load("full_scan_cc2e660.json")["points"])  # D, E and E_x at each f
+    assert f"Two points in {values} lie beyond 3 combined standard errors" in flat
+    assert f"(0.27 % of {values} is {0.0027 * values:.1f})" in flat
     assert (f"(E at 77.8 Hz, z = {beyond[0][2]:.2f}, and E_x at 91 Hz, z = {beyond[1][2]:.2f})"
             in flat)  # fmt: skip
 
