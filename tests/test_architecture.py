@@ -6,6 +6,7 @@ between layers.
 """
 
 import ast
+import inspect
 import subprocess
 import sys
 from collections import Counter
@@ -183,3 +184,46 @@ def test_every_core_kernel_is_compiled_with_the_same_fast_math_flags():
                 assert len(flags) == 1 and getattr(flags[0], "id", None) == "FMA", (
                     f"{path.name}: {node.name} is not compiled with fastmath=FMA"
                 )
+
+
+def test_forceinline_kernels_call_only_inlined_kernels():
+    """numba compiles the callees of a ``forceinline`` kernel with the flag inherited, so a
+    plain ``@njit`` helper called from one would be inlined or not depending on which caller
+    compiled it first (core.tolerances, after FMA): a ``forceinline`` kernel of
+    ``bbdyn/core`` calls, directly or through ``inline="always"`` kernels, only kernels that
+    carry ``inline="always"`` or ``forceinline``."""
+    import importlib
+    import pkgutil
+
+    from numba.core.registry import CPUDispatcher
+
+    import bbdyn.core
+
+    kernels = {}
+    for info in pkgutil.iter_modules(bbdyn.core.__path__):
+        module = importlib.import_module(f"bbdyn.core.{info.name}")
+        for name, obj in vars(module).items():
+            if isinstance(obj, CPUDispatcher) and obj.py_func.__module__ == module.__name__:
+                kernels[name] = obj
+
+    def kind(name):
+        options = kernels[name].targetoptions
+        if options.get("inline") == "always":
+            return "inline"
+        return "forceinline" if options.get("forceinline") else "plain"
+
+    def reached(name, seen):
+        """Kernels called by ``name``, following ``inline="always"`` ones into their bodies."""
+        for node in ast.walk(ast.parse(inspect.getsource(kernels[name].py_func).lstrip())):
+            callee = getattr(getattr(node, "func", None), "id", None)
+            if isinstance(node, ast.Call) and callee in kernels and callee not in seen:
+                seen.add(callee)
+                if kind(callee) == "inline":
+                    reached(callee, seen)
+        return seen
+
+    forced = [name for name in kernels if kind(name) == "forceinline"]
+    assert {"flight_search", "collide_trig", "event_search"} <= set(forced)
+    for name in forced:
+        plain = sorted(c for c in reached(name, set()) if kind(c) == "plain")
+        assert not plain, f"forceinline kernel {name} calls plain kernels {plain}"

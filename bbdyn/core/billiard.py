@@ -291,7 +291,7 @@ def billiard_flight_rule(phase, xi0, vx, vyrel, kp, cubic):
     return flight_search(phase, sn, cs, xi0, vx, vyrel, kp, cubic)
 
 
-@njit(cache=True, fastmath=FMA)
+@njit(cache=True, fastmath=FMA, forceinline=True)
 def flight_search(phase, sn, cs, xi0, vx, vyrel, kp, cubic):
     """First contact with the floor after an event (see the module docstring).
 
@@ -619,7 +619,7 @@ def collide(periods, phase, tile, xi, vx, vyrel, kp):
     return out[:8]
 
 
-@njit(cache=True, fastmath=FMA)
+@njit(cache=True, fastmath=FMA, forceinline=True)
 def collide_trig(periods, phase, sn, cs, tile, xi, vx, vyrel, kp):
     """Apply the collision at ``(tile, xi)`` and decide whether chattering ends in a stick.
 
@@ -675,7 +675,7 @@ def billiard_event_rule(periods, phase, tile, xi, vx, vyrel, kind, kp, cubic):
     return out[:8]
 
 
-@njit(cache=True, fastmath=FMA)
+@njit(cache=True, fastmath=FMA, forceinline=True)
 def event_search(periods, phase, sn, cs, tile, xi, vx, vyrel, kind, kp, cubic):
     """Advance the billiard from one event to the next (docs/model.md §2).
 
@@ -730,7 +730,7 @@ def billiard_event(periods, phase, tile, xi, vx, vyrel, kind, kp):
     return billiard_event_rule(periods, phase, tile, xi, vx, vyrel, kind, kp, True)
 
 
-@njit(cache=True, fastmath=FMA)
+@njit(cache=True, fastmath=FMA, forceinline=True)
 def billiard_event_trig(periods, phase, sn, cs, tile, xi, vx, vyrel, kind, kp):
     """``billiard_event`` for a loop that carries ``sn, cs = sin, cos(phase)`` along.
 

@@ -263,7 +263,12 @@ def integrate_blocks(acc, ev, trig, hi, window, kp, energy):
     if not is_before(lo_p, lo_ph, hi_p, hi_ph):
         return
     b = floor_height_rel(ev.xi, kp) if energy else 0.0
-    for j in range(block_of(lo_p, p0, L, nb), block_of(hi_p, p0, L, nb) + 1):
+    if nb == 1:  # one block (an ensemble's window): [lo, hi] lies in it
+        accumulate_interval(acc, 0, ev, trig, b, (lo_p, lo_ph), (hi_p, hi_ph), kp, energy)
+        return
+    # from lo's block on, until the block that holds hi
+    j = block_of(lo_p, p0, L, nb)
+    while True:
         a_p, a_ph = lo_p, lo_ph
         if is_before(a_p, a_ph, p0 + j * L, 0.0):
             a_p, a_ph = p0 + j * L, 0.0
@@ -272,6 +277,9 @@ def integrate_blocks(acc, ev, trig, hi, window, kp, energy):
             z_p, z_ph = p0 + (j + 1) * L, 0.0
         if is_before(a_p, a_ph, z_p, z_ph):
             accumulate_interval(acc, j, ev, trig, b, (a_p, a_ph), (z_p, z_ph), kp, energy)
+        if j == nb - 1 or not is_before(p0 + (j + 1) * L, 0.0, hi_p, hi_ph):
+            return
+        j += 1
 
 
 @njit(cache=True, fastmath=FMA)

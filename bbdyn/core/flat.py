@@ -156,7 +156,7 @@ def time_above(v, height, g):
     return math.inf, -math.inf
 
 
-@njit(cache=True, fastmath=FMA, error_model="numpy")
+@njit(cache=True, fastmath=FMA, forceinline=True, error_model="numpy")
 def flat_flight_tol(phase, vrel, kp, step_rel):
     """``flat_flight`` with stopping tolerance ``step_rel``, and its gap evaluations.
 
@@ -258,7 +258,7 @@ def flat_flight_tol(phase, vrel, kp, step_rel):
     return tau, Gp, ROOT_NOT_CONVERGED, n_evals
 
 
-@njit(cache=True, fastmath=FMA, error_model="numpy")
+@njit(cache=True, fastmath=FMA, forceinline=True, error_model="numpy")
 def flat_flight_evals(phase, vrel, kp):
     """``flat_flight`` that also returns the number of gap evaluations it made.
 
@@ -268,7 +268,7 @@ def flat_flight_evals(phase, vrel, kp):
     return flat_flight_tol(phase, vrel, kp, ROOT_STEP_REL)
 
 
-@njit(cache=True, fastmath=FMA, error_model="numpy")
+@njit(cache=True, fastmath=FMA, forceinline=True, error_model="numpy")
 def flat_flight(phase, vrel, kp):
     """Time to the first contact after an event, and the relative velocity there.
 
@@ -327,7 +327,7 @@ def chatter_time(phase, vrel, kp):
     return tau_inf
 
 
-@njit(cache=True, fastmath=FMA, error_model="numpy")
+@njit(cache=True, fastmath=FMA, forceinline=True, error_model="numpy")
 def stick_release(periods, phase, gamma):
     """Time of the release that ends a stick at ``(periods, phase)`` (flat ball and billiard).
 
@@ -353,7 +353,7 @@ def stick_release(periods, phase, gamma):
     return periods + 1.0, theta_r, OK
 
 
-@njit(cache=True, fastmath=FMA, error_model="numpy")
+@njit(cache=True, fastmath=FMA, forceinline=True, error_model="numpy")
 def flat_event(periods, phase, vrel, kind, kp):
     """Advance the flat ball from one event to the next.
 

@@ -40,7 +40,7 @@ def is_before(periods1, phase1, periods0, phase0):
     return periods1 < periods0 or (periods1 == periods0 and phase1 < phase0)
 
 
-@njit(cache=True, fastmath=FMA)
+@njit(cache=True, fastmath=FMA, forceinline=True)
 def flight_integrals(vx, vy0, y0, g, ta, tb):
     """Integrals over ``[ta, tb]`` (s after the flight's start) of one parabolic flight.
 
@@ -75,7 +75,7 @@ def flight_integrals(vx, vy0, y0, g, ta, tb):
     return I_Ex, I_Ey, I_pot
 
 
-@njit(cache=True, fastmath=FMA)
+@njit(cache=True, fastmath=FMA, forceinline=True)
 def stuck_integrals(A, w, g, b, phase_a, dt):
     """Integrals over ``dt`` seconds from phase ``phase_a`` of a particle riding the floor.
 

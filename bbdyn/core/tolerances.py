@@ -159,3 +159,15 @@ RELEASE_WINDOW_PAD = 1e-9
 #: compiled for one caller in another, so mixed flags would make results depend on the
 #: order of compilation.
 FMA = {"contract"}
+
+# The kernels an event loop calls once per event without ``inline="always"`` (the event
+# search and what it calls: ``flight_search``, ``collide_trig``, ``stick_release``, the flat
+# ball's flight, the flight integrals) are compiled with numba's ``forceinline=True``: LLVM
+# inlines them into every caller, which saves the call (the floats the caller keeps in
+# registers, spilled around it; the result tuple, returned through memory): 1.2-1.4 times the
+# events per second of the ensemble kernel (docs/benchmarks.md).  Numba's own
+# ``inline="always"`` would type the inlined copies again, a minute or more of compilation
+# per kernel.  A function compiled as their callee inherits the flag, so they call only
+# functions that carry ``inline="always"`` or ``forceinline`` themselves
+# (tests/test_architecture.py): otherwise which caller compiled a helper first would
+# decide whether it is inlined, and the numbers could depend on the order of compilation.
