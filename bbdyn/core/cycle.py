@@ -47,7 +47,9 @@ def release_map(periods, phase, tile, xi, releases, max_events, kp):
     W = np.empty((4, 4))
     T = np.empty((4, 4))
     v0, v1, v2, v3 = 0.0, 1.0, 0.0, 0.0  # d(theta, x, vx, vyrel) per dx at the start
-    vx, vyrel, kind = 0.0, 0.0, RELEASE
+    # kind as a plain int64, not the literal RELEASE: numba would compile the tangent event
+    # twice, once for each type (3 s)
+    vx, vyrel, kind = 0.0, 0.0, np.int64(RELEASE)
     left = releases
     for n in range(1, max_events + 1):
         out = billiard_tangent_event(periods, phase, tile, xi, vx, vyrel, kind, kp, J, W, T)

@@ -767,7 +767,9 @@ def run_ensemble(carry, budget, kp, times, obs, out):
     for i in prange(status.shape[0]):
         if status[i] != RUNNING:
             continue
-        status[i] = particle_loop(carry, i, budget, kp, times, out, obs, None)
+        # prange's index is unsigned in the parallel loop and signed when numba first types
+        # it: the same type in both, or particle_loop is compiled twice (10 s more)
+        status[i] = particle_loop(carry, np.int64(i), budget, kp, times, out, obs, None)
 
 
 @njit(cache=True, fastmath=FMA, parallel=True)
@@ -797,4 +799,4 @@ def run_features(carry, budget, kp, times, th, out):
     for i in prange(status.shape[0]):
         if status[i] != RUNNING:
             continue
-        status[i] = particle_loop(carry, i, budget, kp, times, out, None, th)
+        status[i] = particle_loop(carry, np.int64(i), budget, kp, times, out, None, th)

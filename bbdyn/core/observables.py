@@ -70,8 +70,8 @@ def flight_integrals(vx, vy0, y0, g, ta, tb):
     ym = y0 + tm * (vy0 - 0.5 * g * tm)
     yb = y0 + tb * (vy0 - 0.5 * g * tb)
     I_Ex = 0.5 * vx * vx * dt
-    I_Ey = dt * (va * va + 4.0 * vm * vm + vb * vb) / 12.0
-    I_pot = g * dt * (ya + 4.0 * ym + yb) / 6.0
+    I_Ey = dt * (va * va + 4.0 * vm * vm + vb * vb) * (1.0 / 12.0)
+    I_pot = g * dt * (ya + 4.0 * ym + yb) * (1.0 / 6.0)
     return I_Ex, I_Ey, I_pot
 
 

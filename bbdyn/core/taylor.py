@@ -20,6 +20,8 @@ from bbdyn.core.tolerances import (
     TAYLOR_NEWTON_REL,
 )
 
+#: 1 / n for n = 1 .. TAYLOR_MAX_DEGREE + 1 (index n; 0 unused): ``drive_degree`` multiplies.
+INV_INTEGER = (0.0,) + tuple(1.0 / n for n in range(1, TAYLOR_MAX_DEGREE + 2))
 #: 1 / n! for n = 0 .. TAYLOR_MAX_DEGREE: the Taylor coefficients of the drive.
 INV_FACTORIAL = tuple(1.0 / math.factorial(n) for n in range(TAYLOR_MAX_DEGREE + 1))
 
@@ -34,7 +36,7 @@ def drive_degree(aw, x, budget):
     for N in range(4, TAYLOR_MAX_DEGREE + 1):
         if term <= budget:
             return N
-        term *= x / (N + 1)
+        term *= x * INV_INTEGER[N + 1]
     return 0
 
 
