@@ -286,13 +286,13 @@ def tiny_hop(sn, cs, xi0, S0, vx, vyrel, Gp, kp):
 
 @njit(cache=True, fastmath=FMA)
 def billiard_flight_rule(phase, xi0, vx, vyrel, kp, cubic):
-    """``flight_search`` from the phase alone (its sine and cosine computed here)."""
+    """``flight_search`` from the phase and point alone (``sin_cos`` and ``arc_root`` here)."""
     sn, cs = sin_cos(phase)
-    return flight_search(phase, sn, cs, xi0, vx, vyrel, kp, cubic)
+    return flight_search(phase, sn, cs, xi0, arc_root(xi0, kp), vx, vyrel, kp, cubic)
 
 
 @njit(cache=True, fastmath=FMA, forceinline=True)
-def flight_search(phase, sn, cs, xi0, vx, vyrel, kp, cubic):
+def flight_search(phase, sn, cs, xi0, S0, vx, vyrel, kp, cubic):
     """First contact with the floor after an event (see the module docstring).
 
     Parameters
@@ -307,6 +307,9 @@ def flight_search(phase, sn, cs, xi0, vx, vyrel, kp, cubic):
         after it; the velocity must leave the arc (``V . n > 0``), or may be
         tangent (``V . n = 0``) inside the release window where the floor
         accelerates downward faster than g.
+    S0 : float
+        ``arc_root(xi0)`` (mm): ``collide_trig`` computed it for its bounce, and the event
+        loop carries it to the next flight (a square root fewer per event).
     kp : KernelParams
     cubic : bool
         True: a tiny hop from its Taylor polynomial (``tiny_hop``), else cubic safe steps
@@ -339,7 +342,8 @@ def flight_search(phase, sn, cs, xi0, vx, vyrel, kp, cubic):
     elif vx < 0.0 and xi0 <= -half:
         xi0 = half
         k_base = -1.0
-    S0 = arc_root(xi0, kp)
+    if k_base != 0.0:
+        S0 = arc_root(xi0, kp)
     Gp = vyrel + vx * xi0 / S0  # = R V.n / S0
     if abs(Gp) <= DEPARTURE_REL_TOL * (abs(vyrel) + abs(vx * xi0) / S0):
         Gp = 0.0  # tangent departure (alpha = 0): rounding of V.n = 0 must not count
@@ -627,7 +631,8 @@ def collide_trig(periods, phase, sn, cs, tile, xi, vx, vyrel, kp):
     within ``WEDGE_TOL * d`` of a wedge is put on the wedge and treated by
     ``wedge_reflect``; a collapse into the wedge (``wedge_reflect`` gives up, or
     ``lands_at_once``) is a STICK there.  Returns the event state ``(periods, phase, tile,
-    xi, vx, vyrel, kind, status)`` and the sine and cosine of its phase.
+    xi, vx, vyrel, kind, status)``, the sine and cosine of its phase and ``S = arc_root(xi)``
+    (mm) of its point.
     """
     half = 0.5 * kp.d
     xi = snap_to_wedge(xi, kp)
@@ -639,14 +644,14 @@ def collide_trig(periods, phase, sn, cs, tile, xi, vx, vyrel, kp):
         S = arc_root(xi, kp)
     g_eff = kp.g + kp.A * kp.w * kp.w * sn
     if not ok or (abs(xi) == half and lands_at_once(periods, phase, vyrel, g_eff, kp)):
-        return periods, phase, tile, xi, 0.0, 0.0, STICK, OK, sn, cs
+        return periods, phase, tile, xi, 0.0, 0.0, STICK, OK, sn, cs, S
     if not (math.isfinite(vx) and math.isfinite(vyrel)):
-        return periods, phase, tile, xi, vx, vyrel, IMPACT, NON_FINITE, sn, cs
+        return periods, phase, tile, xi, vx, vyrel, IMPACT, NON_FINITE, sn, cs, S
     if g_eff > 0.0 and kp.beta < 1.0:
         g_n = (g_eff * S - vt * vt) / kp.R
         if g_n > 0.0:
             if vn <= 0.0:  # 0, or a rounding of 0 after a tangent wedge reflection
-                return periods, phase, tile, xi, 0.0, 0.0, STICK, OK, sn, cs
+                return periods, phase, tile, xi, 0.0, 0.0, STICK, OK, sn, cs, S
             tau_inf, ds = chatter_sum(cs, xi, S, vn, vt, g_eff, kp)
             if tau_inf < math.inf:
                 # Rotate the contact point by the angle ds / R along the arc; a
@@ -656,8 +661,8 @@ def collide_trig(periods, phase, sn, cs, tile, xi, vx, vyrel, kp):
                 xi = min(max(xi * c + S * s, -half), half)
                 periods, phase = advance_phase(periods, phase, kp.w * tau_inf)
                 sn, cs = sin_cos(phase)
-                return periods, phase, tile, xi, 0.0, 0.0, STICK, OK, sn, cs
-    return periods, phase, tile, xi, vx, vyrel, IMPACT, OK, sn, cs
+                return periods, phase, tile, xi, 0.0, 0.0, STICK, OK, sn, cs, arc_root(xi, kp)
+    return periods, phase, tile, xi, vx, vyrel, IMPACT, OK, sn, cs, S
 
 
 @njit(cache=True, fastmath=FMA)
@@ -671,12 +676,13 @@ def billiard_event_rule(periods, phase, tile, xi, vx, vyrel, kind, kp, cubic):
     True
     """
     sn, cs = sin_cos(phase)
-    out = event_search(periods, phase, sn, cs, tile, xi, vx, vyrel, kind, kp, cubic)
+    S = arc_root(xi, kp)
+    out = event_search(periods, phase, sn, cs, S, tile, xi, vx, vyrel, kind, kp, cubic)
     return out[:8]
 
 
 @njit(cache=True, fastmath=FMA, forceinline=True)
-def event_search(periods, phase, sn, cs, tile, xi, vx, vyrel, kind, kp, cubic):
+def event_search(periods, phase, sn, cs, S, tile, xi, vx, vyrel, kind, kp, cubic):
     """Advance the billiard from one event to the next (docs/model.md §2).
 
     Parameters
@@ -686,6 +692,8 @@ def event_search(periods, phase, sn, cs, tile, xi, vx, vyrel, kind, kp, cubic):
     sn, cs : float
         ``sin_cos(phase)`` (``plate.py``) (computed once per event: the flight
         and ``collide_trig`` use them, and so do the observables of the event loop).
+    S : float
+        ``arc_root(xi)`` (mm), carried like ``sn, cs`` (``collide_trig`` returns it).
     tile, xi : float
         Tile index (integer-valued) and local coordinate (mm) of the particle, on the floor.
     vx, vyrel : float
@@ -699,8 +707,8 @@ def event_search(periods, phase, sn, cs, tile, xi, vx, vyrel, kind, kp, cubic):
     Returns
     -------
     tuple
-        ``(periods, phase, tile, xi, vx, vyrel, kind, status, sn, cs)`` of the next event
-        (``sn, cs`` the sine and cosine of its phase).
+        ``(periods, phase, tile, xi, vx, vyrel, kind, status, sn, cs, S)`` of the next event
+        (``sn, cs`` the sine and cosine of its phase, ``S = arc_root(xi)``).
         A stuck particle is released with the floor's velocity at ``theta_r = pi +
         asin(1/Gamma)``, or at once if it stuck inside the release window (a wedge
         collapse while the floor falls faster than g; ``stick_release``); for
@@ -709,13 +717,15 @@ def event_search(periods, phase, sn, cs, tile, xi, vx, vyrel, kind, kp, cubic):
     if kind == STICK:
         periods_r, phase_r, status = stick_release(periods, phase, kp.gamma)
         if status != OK:
-            return periods, phase, tile, xi, 0.0, 0.0, STICK, status, sn, cs
+            return periods, phase, tile, xi, 0.0, 0.0, STICK, status, sn, cs, S
         sn_r, cs_r = sin_cos(phase_r)
-        return periods_r, phase_r, tile, xi, 0.0, 0.0, RELEASE, OK, sn_r, cs_r
+        return periods_r, phase_r, tile, xi, 0.0, 0.0, RELEASE, OK, sn_r, cs_r, S
 
-    tau, k, xi_c, vyrel_minus, _, status = flight_search(phase, sn, cs, xi, vx, vyrel, kp, cubic)
+    tau, k, xi_c, vyrel_minus, _, status = flight_search(
+        phase, sn, cs, xi, S, vx, vyrel, kp, cubic
+    )
     if status != OK:
-        return periods, phase, tile, xi, vx, vyrel, kind, status, sn, cs
+        return periods, phase, tile, xi, vx, vyrel, kind, status, sn, cs, S
     periods, phase = advance_phase(periods, phase, kp.w * tau)
     sn_c, cs_c = sin_cos(phase)
     return collide_trig(periods, phase, sn_c, cs_c, tile + k, xi_c, vx, vyrel_minus, kp)
@@ -731,14 +741,15 @@ def billiard_event(periods, phase, tile, xi, vx, vyrel, kind, kp):
 
 
 @njit(cache=True, fastmath=FMA, forceinline=True)
-def billiard_event_trig(periods, phase, sn, cs, tile, xi, vx, vyrel, kind, kp):
-    """``billiard_event`` for a loop that carries ``sn, cs = sin, cos(phase)`` along.
+def billiard_event_trig(periods, phase, sn, cs, S, tile, xi, vx, vyrel, kind, kp):
+    """``billiard_event`` for a loop that carries ``sn, cs = sin, cos(phase)`` and ``S =
+    arc_root(xi)`` along.
 
-    Returns ``(periods, phase, tile, xi, vx, vyrel, kind, status, sn, cs)`` of the next
-    event; bitwise the state of ``billiard_event`` (the same ``sin_cos`` values,
-    computed once per event instead of up to five times).
+    Returns ``(periods, phase, tile, xi, vx, vyrel, kind, status, sn, cs, S)`` of the next
+    event; bitwise the state of ``billiard_event`` (the same ``sin_cos`` and ``arc_root``
+    values, computed once per event instead of up to five times and twice).
     """
-    return event_search(periods, phase, sn, cs, tile, xi, vx, vyrel, kind, kp, True)
+    return event_search(periods, phase, sn, cs, S, tile, xi, vx, vyrel, kind, kp, True)
 
 
 @njit(cache=True, fastmath=FMA)

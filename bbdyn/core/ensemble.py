@@ -312,8 +312,11 @@ def integrate_to_split(acc, ev, p0, split, kp, energy):
     rows = acc[1:]
     periods, phase, tile, xi, vx, vyrel, kind = ev
     trig = sin_cos(phase)
+    S = arc_root(xi, kp)
     while is_before(periods, phase, split, 0.0):
-        nxt = billiard_event_trig(periods, phase, trig[0], trig[1], tile, xi, vx, vyrel, kind, kp)
+        nxt = billiard_event_trig(
+            periods, phase, trig[0], trig[1], S, tile, xi, vx, vyrel, kind, kp
+        )
         if nxt[7] != OK and nxt[7] != STUCK_FOREVER:
             return
         hi_p, hi_ph = split, 0.0
@@ -322,7 +325,7 @@ def integrate_to_split(acc, ev, p0, split, kp, energy):
         ev_now = Event(periods, phase, tile, xi, vx, vyrel, kind)
         integrate_blocks(rows, ev_now, trig, (hi_p, hi_ph), half, kp, energy)
         periods, phase, tile, xi, vx, vyrel = hi_p, hi_ph, nxt[2], nxt[3], nxt[4], nxt[5]
-        kind, trig = nxt[6], (nxt[8], nxt[9])  # hi is that event's time unless the loop ends
+        kind, trig, S = nxt[6], (nxt[8], nxt[9]), nxt[10]  # hi: that event's time unless the end
 
 
 @njit(cache=True, fastmath=FMA, inline="always")
@@ -630,13 +633,16 @@ def particle_loop(carry, i, budget, kp, times, out, obs, th):
     n_samples = sample_periods.shape[0]
     status = OK
     n_done = 0
-    trig = sin_cos(phase)  # then carried from event to event
+    trig = sin_cos(phase)  # then carried from event to event, as is S
+    S = arc_root(xi, kp)
     while True:
         if n_done == budget:
             status = RUNNING
             break
         n_done += 1
-        nxt = billiard_event_trig(periods, phase, trig[0], trig[1], tile, xi, vx, vyrel, kind, kp)
+        nxt = billiard_event_trig(
+            periods, phase, trig[0], trig[1], S, tile, xi, vx, vyrel, kind, kp
+        )
         status = nxt[7]
         if status == STUCK_FOREVER:
             n_periods, n_phase = math.inf, 0.0
@@ -672,7 +678,7 @@ def particle_loop(carry, i, budget, kp, times, out, obs, th):
 
         periods, phase, tile, xi, vx, vyrel = nxt[0], nxt[1], nxt[2], nxt[3], nxt[4], nxt[5]
         kind = nxt[6]
-        trig = (nxt[8], nxt[9])
+        trig, S = (nxt[8], nxt[9]), nxt[10]
         if kind == RELEASE:
             if do_ff:
                 bound = (end_p, end_ph)

@@ -22,6 +22,7 @@ from numba import njit
 from bbdyn.core.tolerances import FMA
 
 TWO_PI = 2.0 * math.pi
+INV_TWO_PI = 1.0 / TWO_PI
 
 # Cody-Waite split of pi/2 (fdlibm): 33 leading bits each, so k * _PIO2_1 and
 # k * _PIO2_2 are exact for k < 2^20 and the reduced argument keeps full precision.
@@ -157,7 +158,7 @@ def advance_phase(periods, phase, dphase):
     (exact up to 2^53 periods), so runs of 1e7 periods lose no precision.
     """
     total = phase + dphase
-    whole = math.floor(total / TWO_PI)
+    whole = math.floor(total * INV_TWO_PI)  # a product, not a quotient: off by one at most
     phase_new = total - whole * TWO_PI
     if phase_new >= TWO_PI:  # rounding at the boundary
         phase_new -= TWO_PI
