@@ -70,14 +70,19 @@ def xi_from_arc_length(s, kp):
 
 @njit(cache=True, fastmath=FMA, inline="always")
 def normal_velocity(xi, S, vx, vy, R):
-    """Components (V_n, V_t) of a velocity (vx, vy) along n = (xi, S)/R and t = (S, -xi)/R."""
-    return (vx * xi + vy * S) / R, (vx * S - vy * xi) / R
+    """Components (V_n, V_t) of a velocity (vx, vy) along n = (xi, S)/R and t = (S, -xi)/R.
+
+    Multiplied by ``1 / R``, not divided by R: a division fewer on each bounce's chain (the
+    reciprocal is hoisted out of the event loop)."""
+    inv_R = 1.0 / R
+    return (vx * xi + vy * S) * inv_R, (vx * S - vy * xi) * inv_R
 
 
 @njit(cache=True, fastmath=FMA, inline="always")
 def from_normal_velocity(xi, S, vn, vt, R):
     """Cartesian (vx, vy) of the velocity with components (V_n, V_t) at ``xi``."""
-    return (vn * xi + vt * S) / R, (vn * S - vt * xi) / R
+    inv_R = 1.0 / R
+    return (vn * xi + vt * S) * inv_R, (vn * S - vt * xi) * inv_R
 
 
 @njit(cache=True, fastmath=FMA, inline="always")
