@@ -257,11 +257,17 @@ def test_the_scan_with_one_evaluation_fewer_above_the_floor():
             in flat)  # fmt: skip
 
 
+def bench_speeds(bench: dict, commit: str) -> tuple[float, float, float]:
+    """Speeds of ``commit`` in a bench_trees report against the targets: flat impacts/s at
+    the default tolerance, billiard collisions/s in one flight and in a continuous run."""
+    return tuple(bench[t][i][commit]["speed"] for t, i in (("flat", 0), ("billiard", 0),
+                                                           ("billiard", 1)))  # fmt: skip
+
+
 def assert_targets_out_of_reach(bench: dict, commit: str, flat: str) -> None:
     """The flat and billiard speeds of ``commit`` in a bench_trees report are below their
     targets, and docs/benchmarks.md (``flat``: its words joined by single spaces) says so."""
-    speeds = [bench[t][i][commit]["speed"] for t, i in (("flat", 0), ("billiard", 0),
-                                                        ("billiard", 1))]  # fmt: skip
+    speeds = bench_speeds(bench, commit)
     assert speeds[0] < 1e7 and max(speeds[1:]) < 8e6
     assert (
         "out of reach: {:.3g} impacts/s against 1e7 for the flat ball, {:.3g} collisions/s "
@@ -320,16 +326,16 @@ def test_the_scan_with_the_event_search_inlined():
     for target in ("flat", "billiard"):
         assert trees.doc_table(bench, target) in text
         assert all(row["ratio"] > 1.0 for row in bench[target])  # "both gain"
-    speed = lambda t, i, c="92c6887": bench[t][i][c]["speed"]  # noqa: E731
+    flat_s, one_s, run_s = bench_speeds(bench, "92c6887")
     assert max(r["ratio"] for r in bench["billiard"]) > max(r["ratio"] for r in bench["flat"])
-    assert speed("billiard", 0) > 8e6 and speed("flat", 0) < 1e7 and speed("billiard", 1) < 8e6
+    assert one_s > 8e6 and flat_s < 1e7 and run_s < 8e6
     assert (
-        f"One billiard flight now runs at {speed('billiard', 0):.3g} collisions/s, above "
-        f"the target of 8e6. The flat ball reaches {speed('flat', 0):.3g} impacts/s against "
-        f"1e7, and a continuous billiard run {speed('billiard', 1):.3g} collisions/s"
+        f"One billiard flight now runs at {one_s:.3g} collisions/s, above "
+        f"the target of 8e6. The flat ball reaches {flat_s:.3g} impacts/s against "
+        f"1e7, and a continuous billiard run {run_s:.3g} collisions/s"
     ) in flat
     last = json.loads((ROOT / "docs" / "bench" / "bench_trees_187c778_cc2e660.json").read_text())
-    assert (f"in this run 8ff7342 made {speed('billiard', 0, '8ff7342'):.3g} collisions/s in one "
+    assert (f"in this run 8ff7342 made {bench_speeds(bench, '8ff7342')[1]:.3g} collisions/s in one "
             f"flight, where cc2e660, the same kernel, made "
             f"{last['billiard'][0]['cc2e660']['speed']:.3g}") in flat  # fmt: skip
     # agreement with S3_full
@@ -392,16 +398,16 @@ def test_the_scan_with_a_square_root_fewer_per_falling_step():
     one, cont, ens = (row["ratio"] for row in bench["billiard"])
     assert (f"One billiard flight gains {one:.3f}, the continuous run and the ensemble "
             f"{min(cont, ens):.3f}-{max(cont, ens):.3f}") in flat  # fmt: skip
-    speed = lambda t, i, c="67c51b6": bench[t][i][c]["speed"]  # noqa: E731
-    assert speed("flat", 0) < 1e7 and speed("billiard", 1) < 8e6 and speed("billiard", 0) > 8e6
+    flat_s, one_s, run_s = bench_speeds(bench, "67c51b6")
+    assert flat_s < 1e7 and run_s < 8e6 and one_s > 8e6
     assert (
-        f"{speed('flat', 0):.3g} impacts/s against 1e7 for the flat ball, and "
-        f"{speed('billiard', 1):.3g} collisions/s against 8e6 for a continuous billiard run "
-        f"(one flight: {speed('billiard', 0):.3g})"
+        f"{flat_s:.3g} impacts/s against 1e7 for the flat ball, and "
+        f"{run_s:.3g} collisions/s against 8e6 for a continuous billiard run "
+        f"(one flight: {one_s:.3g})"
     ) in flat
     last = json.loads((ROOT / "docs" / "bench" / "bench_trees_8ff7342_92c6887.json").read_text())
     assert (
-        f"The same 92c6887 made {speed('flat', 0, '92c6887'):.3g} impacts/s here against "
+        f"The same 92c6887 made {bench_speeds(bench, '92c6887')[0]:.3g} impacts/s here against "
         f"{last['flat'][0]['92c6887']['speed']:.3g} in the run of the last section"
     ) in flat
     # the Lyapunov exponents before and after, in combined standard errors

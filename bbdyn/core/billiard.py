@@ -344,8 +344,9 @@ def flight_search(phase, sn, cs, xi0, S0, vx, vyrel, kp, cubic):
         k_base = -1.0
     if k_base != 0.0:
         S0 = arc_root(xi0, kp)
-    Gp = vyrel + vx * xi0 * (1.0 / S0)  # = R V.n / S0; tiny_hop's 1 / S0 (one division)
-    if abs(Gp) <= DEPARTURE_REL_TOL * (abs(vyrel) + abs(vx * xi0) / S0):
+    inv_S0 = 1.0 / S0  # the one division by S0 (tiny_hop's gap_coefficients shares it)
+    Gp = vyrel + vx * xi0 * inv_S0  # = R V.n / S0
+    if abs(Gp) <= DEPARTURE_REL_TOL * (abs(vyrel) + abs(vx * xi0) * inv_S0):
         Gp = 0.0  # tangent departure (alpha = 0): rounding of V.n = 0 must not count
     elif cubic and Gp > 0.0 and abs(xi0) < half:
         tau, xi, vyrel_minus, solved = tiny_hop(sn, cs, xi0, S0, vx, vyrel, Gp, kp)
