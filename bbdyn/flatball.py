@@ -14,7 +14,6 @@ import time
 import numpy as np
 
 from bbdyn.core.flat import flat_run
-from bbdyn.core.plate import release_window
 from bbdyn.core.status import (
     EVENT_NAMES,
     IMPACT,
@@ -146,8 +145,7 @@ def _initial_state(kp, phase0, v0, vrel0, periods0, stuck):
     if not math.isfinite(vrel):
         given = v0 if vrel0 is None else vrel0
         raise ValueError(f"the initial velocity must be finite, got {given}")
-    theta_r, theta_e = release_window(kp.gamma)
-    releasing = theta_r <= phase < theta_e  # the plate falls away faster than g
+    releasing = kp.release_r <= phase < kp.release_e  # the plate falls away faster than g
     if vrel > 0.0:
         return periods, phase, vrel, IMPACT
     if vrel == 0.0 and releasing:

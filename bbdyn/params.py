@@ -12,6 +12,8 @@ import numbers
 from dataclasses import asdict, dataclass, replace
 from typing import NamedTuple
 
+from bbdyn.core.plate import release_window
+
 __all__ = ["Params", "KernelParams", "check_params"]
 
 
@@ -22,8 +24,11 @@ class KernelParams(NamedTuple):
     here so that kernels never recompute them: ``gamma = A w^2 / g``,
     ``curv_bound = g + A w^2`` (a bound on ``|d^2 gap / dt^2|`` of the flat ball),
     ``c0 = sqrt(R^2 - d^2/4)`` (depth of the arc centres below the wedges),
-    ``period = 2 pi / w`` and ``arc5_bound = 15 R^2 h (3 R^2 + 4 h^2) / c0^9`` (h = d/2;
-    a bound on the fifth derivative of the arc height on a tile, ``billiard.tiny_hop``).
+    ``period = 2 pi / w``, ``arc5_bound = 15 R^2 h (3 R^2 + 4 h^2) / c0^9`` (h = d/2;
+    a bound on the fifth derivative of the arc height on a tile, ``billiard.tiny_hop``) and
+    the release window ``release_r <= phase < release_e`` (rad) where ``sin(phase) <
+    -1/Gamma`` (``plate.release_window``: both -1 for Gamma <= 1), so that no flight or
+    stick computes its arcsine again.
     """
 
     A: float
@@ -38,6 +43,8 @@ class KernelParams(NamedTuple):
     c0: float
     period: float
     arc5_bound: float
+    release_r: float
+    release_e: float
 
 
 #: Supported range ``(low, high)`` of each dimensional field, in its unit (Hz, mm, mm/s^2);
@@ -181,6 +188,8 @@ class Params:
         c0 = math.sqrt(self.R**2 - self.d**2 / 4)
         R2, half, c0_2 = self.R * self.R, 0.5 * self.d, c0 * c0
         arc5 = 15.0 * R2 * half * (3.0 * R2 + 4.0 * half * half) / (c0_2 * c0_2 * c0_2 * c0_2 * c0)
+        # the kernels' own compiled function: the same bits as computing it inside them
+        release_r, release_e = release_window(self.gamma)
         return KernelParams(
             A=self.A,
             w=w,
@@ -194,6 +203,8 @@ class Params:
             c0=c0,
             period=1.0 / self.f,
             arc5_bound=arc5,
+            release_r=release_r,
+            release_e=release_e,
         )
 
 

@@ -31,6 +31,23 @@ def test_kernel_params_are_consistent():
     assert kp.period == pytest.approx(2 * math.pi / kp.w)
 
 
+@pytest.mark.parametrize("f", [30.0, 49.8, 49.9, 58.0, 95.0, 1e4])
+def test_kernel_release_window_is_where_the_floor_falls_faster_than_g(f):
+    # sin(phase) < -1/Gamma between pi + asin(1/Gamma) and 2 pi - asin(1/Gamma); none for Gamma <= 1
+    p = Params(f=f)
+    kp = p.kernel()
+    if p.gamma <= 1.0:
+        assert (kp.release_r, kp.release_e) == (-1.0, -1.0)
+        return
+    a = math.asin(1.0 / p.gamma)
+    assert kp.release_r == pytest.approx(math.pi + a, rel=1e-15)
+    assert kp.release_e == pytest.approx(2 * math.pi - a, rel=1e-15)
+    for phase in np.linspace(0.0, 2 * math.pi, 2001, endpoint=False):
+        inside = kp.release_r <= phase < kp.release_e
+        if abs(p.gamma * math.sin(phase) + 1.0) > 1e-9:  # away from the edges' rounding
+            assert inside == (p.gamma * math.sin(phase) < -1.0)
+
+
 @pytest.mark.parametrize(
     ("field", "value", "message"),
     [

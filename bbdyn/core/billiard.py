@@ -73,7 +73,7 @@ from bbdyn.core.flat import (
     time_above,
 )
 from bbdyn.core.floor import arc_root, bounce, bounce_at, floor_drop
-from bbdyn.core.plate import advance_phase, release_window, sin_cos
+from bbdyn.core.plate import advance_phase, sin_cos
 from bbdyn.core.status import (
     BAD_STATE,
     IMPACT,
@@ -369,11 +369,7 @@ def flight_search(phase, sn, cs, xi0, S0, vx, vyrel, kp, cubic):
     xi = xi0
     S = S0
     tc = crossing_time(xi0, k, vx, d)
-    # Cheap superset of the release window sin(phase) < -1/Gamma before the asin.
-    if kp.gamma * sn < -1.0 + 1e-9:
-        theta_r, theta_e = release_window(kp.gamma)
-    else:
-        theta_r, theta_e = -1.0, -1.0
+    theta_r, theta_e = kp.release_r, kp.release_e  # where sin(phase) < -1/Gamma
     if vx == 0.0 and theta_r < phase < theta_e:
         # Released inside the window (a stick there lasts zero time): the particle stays
         # over xi0, so G is the flat ball's gap.  Near theta_e its contact is of third order
@@ -716,7 +712,7 @@ def event_search(periods, phase, sn, cs, S, tile, xi, vx, vyrel, kind, kp, cubic
         Gamma <= 1 the state is returned unchanged with ``STUCK_FOREVER``.
     """
     if kind == STICK:
-        periods_r, phase_r, status = stick_release(periods, phase, kp.gamma)
+        periods_r, phase_r, status = stick_release(periods, phase, kp)
         if status != OK:
             return periods, phase, tile, xi, 0.0, 0.0, STICK, status, sn, cs, S
         sn_r, cs_r = sin_cos(phase_r)

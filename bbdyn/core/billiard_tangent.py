@@ -290,7 +290,7 @@ def billiard_tangent_event(periods, phase, tile, xi, vx, vyrel, kind, kp, J, W, 
         The next event, bitwise that of ``billiard_event``.
     """
     if kind == STICK:
-        periods_r, phase_r, status = stick_release(periods, phase, kp.gamma)
+        periods_r, phase_r, status = stick_release(periods, phase, kp)
         for i in range(4):
             for j in range(4):
                 J[i, j] = 0.0

@@ -55,7 +55,7 @@ from bbdyn.core.observables import (
     time_between,
     trap_of,
 )
-from bbdyn.core.plate import plate_height_sin, plate_velocity_cos, release_window, sin_cos
+from bbdyn.core.plate import plate_height_sin, plate_velocity_cos, sin_cos
 from bbdyn.core.status import IMPACT, OK, RELEASE, STICK, STUCK_FOREVER
 from bbdyn.core.tolerances import FF_DRIFT_TOL, FF_ENERGY_REL_TOL, FMA
 
@@ -378,7 +378,7 @@ def converged_cycle(carry, i, n_rel, ev, acc, counts, kp):
         dP = ev.periods - r1[2]
         if r1[2] - r2[2] != dP or ev.tile - r1[3] != r1[3] - r2[3] or r1[4] != r2[4]:
             continue
-        if ev.phase != release_window(kp.gamma)[0]:
+        if ev.phase != kp.release_r:
             return 0
         same = True
         for c in range(CNT_WIDTH):

@@ -59,7 +59,6 @@ from bbdyn.core.plate import (
     advance_phase,
     plate_dvel,
     plate_rise,
-    release_window,
     sin_cos,
 )
 from bbdyn.core.status import (
@@ -77,7 +76,6 @@ from bbdyn.core.tolerances import (
     CHATTER_REL_TOL,
     EPS,
     FMA,
-    RELEASE_WINDOW_PAD,
     ROOT_MAX_STEPS,
     ROOT_STEP_REL,
     TAYLOR_MAX_SPAN,
@@ -213,16 +211,11 @@ def flat_flight_tol(phase, vrel, kp, step_rel):
     n_evals = 0
     tau = 0.0
     G, Gp, sn, cn = 0.0, vrel, s0, c0
-    # Cheap superset of the release window sin(phase) < -1/Gamma before the asin.
-    if kp.gamma * s0 < -1.0 + RELEASE_WINDOW_PAD:
-        theta_r, theta_e = release_window(kp.gamma)
-    else:
-        theta_r, theta_e = -1.0, -1.0
-    if theta_r <= phase < theta_e:
-        # G'' > 0 until theta_e and G(0) = 0, G'(0) >= 0: no contact before theta_e.
+    if kp.release_r <= phase < kp.release_e:
+        # G'' > 0 until release_e and G(0) = 0, G'(0) >= 0: no contact before release_e.
         if vrel < 0.0:
             return 0.0, vrel, BAD_STATE, n_evals
-        tau = (theta_e - phase) / w
+        tau = (kp.release_e - phase) / w
     elif not vrel > 0.0:
         return 0.0, vrel, BAD_STATE, n_evals
 
@@ -336,22 +329,22 @@ def chatter_time(phase, vrel, kp):
 
 
 @njit(cache=True, fastmath=FMA, forceinline=True, error_model="numpy")
-def stick_release(periods, phase, gamma):
+def stick_release(periods, phase, kp):
     """Time of the release that ends a stick at ``(periods, phase)`` (flat ball and billiard).
 
-    The floor holds a particle resting on it while its acceleration is above
-    -g, i.e. outside the release window ``theta_r <= theta < theta_e`` of
-    ``release_window``.  A stick inside the window lasts zero time: the
-    particle leaves at once, at ``phase``.  Before it, the particle leaves at
-    ``theta_r`` of the same period; from ``theta_e`` on, at ``theta_r`` of the
-    next one.  The flight that follows starts with the floor's velocity and is
-    the release flight of ``flat_flight`` and ``billiard_flight``.
+    The floor holds a particle resting on it while its acceleration is above -g,
+    i.e. outside the release window ``theta_r <= theta < theta_e`` (``kp.release_r``,
+    ``kp.release_e``).  A stick inside the window lasts zero time: the particle leaves
+    at once, at ``phase``.  Before it, the particle leaves at ``theta_r`` of the same
+    period; from ``theta_e`` on, at ``theta_r`` of the next one.  The flight that
+    follows starts with the floor's velocity and is the release flight of
+    ``flat_flight`` and ``billiard_flight``.
 
     Returns ``(periods, phase, status)`` of the release: whole periods, phase
     (rad) and ``OK``, or the stick's own time and ``STUCK_FOREVER`` for
     Gamma <= 1 (no window: it never leaves).
     """
-    theta_r, theta_e = release_window(gamma)
+    theta_r, theta_e = kp.release_r, kp.release_e
     if theta_r < 0.0:
         return periods, phase, STUCK_FOREVER
     if theta_r <= phase < theta_e:
@@ -381,7 +374,7 @@ def flat_event(periods, phase, vrel, kind, kp):
     ``STUCK_FOREVER`` (state unchanged) for a stuck particle with Gamma <= 1.
     """
     if kind == STICK:
-        periods_r, phase_r, status = stick_release(periods, phase, kp.gamma)
+        periods_r, phase_r, status = stick_release(periods, phase, kp)
         if status != OK:
             return periods, phase, 0.0, STICK, status
         return periods_r, phase_r, 0.0, RELEASE, OK

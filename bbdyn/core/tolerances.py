@@ -145,11 +145,6 @@ DEPARTURE_MARGIN = 1.5
 DEPARTURE_SHRINK = 1.4
 DEPARTURE_MAX_TRIES = 64
 
-#: ``flat_flight_tol`` (core/flat.py) computes the release window ``sin(phase) < -1/Gamma``
-#: only when ``Gamma sin(phase) < -1 + RELEASE_WINDOW_PAD``: a cheap superset test, padded
-#: so that rounding of ``Gamma sin(phase)`` never skips a phase inside the window.
-RELEASE_WINDOW_PAD = 1e-9
-
 # ---- floating point (every core kernel) ---------------------------------------------
 
 #: LLVM fast-math flags of every core kernel: only "contract", so that ``a * b + c`` may be
