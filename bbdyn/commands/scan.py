@@ -112,8 +112,11 @@ def run(args) -> int:
     f_last = args.f_start + (count - 1) * args.f_step
     cost = check_scan_size(args.f_start, f_last, count, n=args.n, t=args.t,
                            transient=args.transient)  # fmt: skip
-    print(f"bbdyn scan: {count} frequencies, at most {duration(cost['cpu_s'])} of CPU time "
-          "(event model; real runs are faster)", file=sys.stderr)  # fmt: skip
+    # a bound for refusing oversized scans, not a forecast: the progress line measures the time
+    print(f"bbdyn scan: {count} frequencies; the kernels take at most {duration(cost['cpu_s'])} "
+          "of CPU time by the conservative event model, plus their compilation on first use (a "
+          "bound, not a forecast: real runs make fewer, cheaper events; the progress line gives "
+          "the time left once points finish)", file=sys.stderr)  # fmt: skip
     grid = frequency_grid(args.f_start, args.f_stop, args.f_step)
     log = open(args.progress, "a", buffering=1) if args.progress else None  # noqa: SIM115
     try:
