@@ -157,8 +157,10 @@ def time_above(v, height, g):
     2``; ``(inf, -inf)`` if it never does."""
     disc = v * v - 2.0 * g * height
     if v > 0.0 and disc > 0.0:
-        tau_down = (v + math.sqrt(disc)) / g
-        return 2.0 * height / (g * tau_down), tau_down
+        # (v -+ sqrt(disc)) / g, the smaller as 2 height / (v + sqrt(disc)) (no cancellation):
+        # two divisions side by side, not one waiting for the other
+        v_plus = v + math.sqrt(disc)
+        return 2.0 * height / v_plus, v_plus / g
     return math.inf, -math.inf
 
 
