@@ -10,14 +10,19 @@ round.  Reported per tree: the median over rounds of its minimum time per flight
 evaluations per flight, and whether its flight times and velocities are bitwise those of
 the first tree; the ratio of the medians (each tree / the first).
 
+``--patch DIFF`` adds a tree: a copy of the first tree's ``bbdyn/`` with the unified diff
+``DIFF`` applied (``git apply``; paths ``a/bbdyn/...``), named ``FIRST+STEM``.  A variant is
+then one committed file (``docs/bench/flat_variants/``) instead of a source tree.
+
 Usage::
 
-    python benchmarks/flat_flights.py TREE [TREE ...] [--rounds 4] [--json]
+    python benchmarks/flat_flights.py TREE [TREE ...] [--patch DIFF ...] [--rounds 4] [--json]
 """
 
 import argparse
 import json
 import os
+import shutil
 import statistics
 import subprocess
 import sys
@@ -70,9 +75,23 @@ def worker() -> None:
         print(json.dumps({"ns_per_flight": best / (PASSES * phase.size) * 1e9}), flush=True)
 
 
-def compare(trees: list[str], rounds: int) -> dict:
-    """Interleaved timing of ``trees``; the report described in the module docstring."""
+def patched_tree(tree: str, diff: str, folder: str) -> str:
+    """A copy of ``tree``'s ``bbdyn/`` in ``folder`` with the unified diff ``diff`` applied."""
+    copy = os.path.join(folder, os.path.splitext(os.path.basename(diff))[0])
+    ignore = shutil.ignore_patterns("__pycache__")
+    shutil.copytree(os.path.join(tree, "bbdyn"), os.path.join(copy, "bbdyn"), ignore=ignore)
+    subprocess.run(["git", "apply", os.path.abspath(diff)], cwd=copy, check=True)
+    return copy
+
+
+def compare(trees: list[str], rounds: int, patches: tuple[str, ...] = ()) -> dict:
+    """Interleaved timing of ``trees`` and of the first with each of ``patches`` applied; the
+    report described in the module docstring."""
     with tempfile.TemporaryDirectory() as folder:
+        labels = [kernel_buffers.tree_label(tree) for tree in trees]
+        for diff in patches:
+            trees = [*trees, patched_tree(trees[0], diff, folder)]
+            labels.append(f"{labels[0]}+{os.path.splitext(os.path.basename(diff))[0]}")
         procs, first = [], []
         for i, tree in enumerate(trees):
             cache = os.path.join(folder, f"numba_{i}")
@@ -94,14 +113,15 @@ def compare(trees: list[str], rounds: int) -> dict:
             proc.wait()
     medians = [statistics.median(t) for t in times]
     return {
-        "trees": [kernel_buffers.tree_label(tree) for tree in trees],
+        "trees": labels,
+        "patches": [os.path.basename(diff) for diff in patches],
         "rounds": rounds,
         "results": [
-            {"tree": kernel_buffers.tree_label(tree), "ns_per_flight": times[i],
+            {"tree": labels[i], "ns_per_flight": times[i],
              "median_ns_per_flight": medians[i], "ratio_to_first": medians[i] / medians[0],
              "evals_per_flight": first[i]["evals_per_flight"],
              "bitwise_as_first": first[i]["digest"] == first[0]["digest"]}
-            for i, tree in enumerate(trees)
+            for i in range(len(trees))
         ],
     }  # fmt: skip
 
@@ -120,6 +140,8 @@ def table(report: dict) -> str:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("trees", nargs="*", help="source trees; ratios are to the first")
+    parser.add_argument("--patch", nargs="+", default=[], metavar="DIFF",
+                        help="also time the first tree with each unified diff applied")  # fmt: skip
     parser.add_argument("--rounds", type=int, default=4, help="timed rounds per tree (>= 1)")
     parser.add_argument("--json", action="store_true", help="print the report as JSON")
     parser.add_argument("--worker", action="store_true", help=argparse.SUPPRESS)
@@ -129,7 +151,7 @@ def main() -> None:
         return
     if not args.trees or args.rounds < 1:
         parser.error("give at least one source tree and --rounds >= 1")
-    report = compare(args.trees, args.rounds)
+    report = compare(args.trees, args.rounds, tuple(args.patch))
     print(json.dumps(report, indent=1) if args.json else table(report))
 
 
