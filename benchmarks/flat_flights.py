@@ -2,9 +2,9 @@
 
 Times what ``bbdyn bench flat`` reports as its default row (``b2_flat.exact_one_step`` at
 ``ROOT_STEP_REL`` on the start states of ``b2_flat.CASE``), but in a loop compiled around
-it, so that the 1 us of Python-to-numba dispatch per call of 300 flights is not counted,
-and with the minimum over many short runs instead of a median, so that differences of
-0.5 % show.  Each tree gets a worker process (``PYTHONPATH`` = the tree, its own numba
+it, so that the Python-to-numba call around each pass over the 300 flights is not counted,
+and as the minimum over many short runs, repeated in rounds (the median over rounds is
+reported).  Each tree gets a worker process (``PYTHONPATH`` = the tree, its own numba
 cache) that compiles first; every round asks each worker once, the order reversed on every
 round.  Reported per tree: the median over rounds of its minimum time per flight (ns), gap
 evaluations per flight, and whether its flight times and velocities are bitwise those of
