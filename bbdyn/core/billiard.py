@@ -743,8 +743,10 @@ def billiard_event_trig(periods, phase, sn, cs, S, tile, xi, vx, vyrel, kind, kp
     arc_root(xi)`` along.
 
     Returns ``(periods, phase, tile, xi, vx, vyrel, kind, status, sn, cs, S)`` of the next
-    event; bitwise the state of ``billiard_event`` (the same ``sin_cos`` and ``arc_root``
-    values, computed once per event instead of up to five times and twice).
+    event: the state of ``billiard_event`` (the same ``sin_cos`` and ``arc_root``, computed
+    once per event instead of up to five times and twice).  Inlined into its caller, the
+    search may fuse other multiply-adds than the standalone ``billiard_event``: the two
+    can differ in the last bit (then chaos amplifies it).
     """
     return event_search(periods, phase, sn, cs, S, tile, xi, vx, vyrel, kind, kp, True)
 
@@ -770,10 +772,14 @@ def billiard_run(
     """Iterate ``billiard_event`` and write each event into the ``out_*`` arrays (in place).
 
     Returns ``(n_written, status)``; stops early at a failure or at ``STUCK_FOREVER``.
+    The loop carries each event's sine, cosine and arc root (``billiard_event_trig``, as
+    the ensemble does), computed once per event.
     """
+    sn, cs = sin_cos(phase)
+    S = arc_root(xi, kp)
     for i in range(out_phase.shape[0]):
-        periods, phase, tile, xi, vx, vyrel, kind, status = billiard_event(
-            periods, phase, tile, xi, vx, vyrel, kind, kp
+        periods, phase, tile, xi, vx, vyrel, kind, status, sn, cs, S = billiard_event_trig(
+            periods, phase, sn, cs, S, tile, xi, vx, vyrel, kind, kp
         )
         if status != OK:
             return i, status
@@ -791,11 +797,14 @@ def billiard_run(
 def billiard_run_count(periods, phase, tile, xi, vx, vyrel, kind, kp, n_events):
     """Iterate ``n_events`` events without storing them (benchmarks, transients).
 
-    Returns the final ``(periods, phase, tile, xi, vx, vyrel, kind, n_done, status)``.
+    Returns the final ``(periods, phase, tile, xi, vx, vyrel, kind, n_done, status)``;
+    the events of ``billiard_run``, with the same carried sine, cosine and arc root.
     """
+    sn, cs = sin_cos(phase)
+    S = arc_root(xi, kp)
     for i in range(n_events):
-        periods, phase, tile, xi, vx, vyrel, kind, status = billiard_event(
-            periods, phase, tile, xi, vx, vyrel, kind, kp
+        periods, phase, tile, xi, vx, vyrel, kind, status, sn, cs, S = billiard_event_trig(
+            periods, phase, sn, cs, S, tile, xi, vx, vyrel, kind, kp
         )
         if status != OK:
             return periods, phase, tile, xi, vx, vyrel, kind, i, status
