@@ -84,6 +84,16 @@ def patched_tree(tree: str, diff: str, folder: str) -> str:
     return copy
 
 
+def start_worker(tree: str, cache: str, script: str, args: list[str]) -> subprocess.Popen:
+    """``script args`` in a process on the source tree ``tree`` with the new numba cache
+    ``cache``, talking through stdin and stdout."""
+    os.mkdir(cache)
+    env = chatter_takeover.tree_env(tree, cache)  # checks bbdyn comes from ``tree``
+    cmd = [sys.executable, os.path.abspath(script), *args]
+    return subprocess.Popen(cmd, env=env, cwd=cache, stdin=subprocess.PIPE,
+                            stdout=subprocess.PIPE, text=True)  # fmt: skip
+
+
 def compare(trees: list[str], rounds: int, patches: tuple[str, ...] = ()) -> dict:
     """Interleaved timing of ``trees`` and of the first with each of ``patches`` applied; the
     report described in the module docstring."""
@@ -95,11 +105,7 @@ def compare(trees: list[str], rounds: int, patches: tuple[str, ...] = ()) -> dic
         procs, first = [], []
         for i, tree in enumerate(trees):
             cache = os.path.join(folder, f"numba_{i}")
-            os.mkdir(cache)
-            env = chatter_takeover.tree_env(tree, cache)  # checks bbdyn comes from ``tree``
-            cmd = [sys.executable, os.path.abspath(__file__), "--worker"]
-            procs.append(subprocess.Popen(cmd, env=env, cwd=cache, stdin=subprocess.PIPE,
-                                          stdout=subprocess.PIPE, text=True))  # fmt: skip
+            procs.append(start_worker(tree, cache, __file__, ["--worker"]))
             first.append(json.loads(procs[-1].stdout.readline()))
         times = [[] for _ in trees]
         for r in range(rounds):

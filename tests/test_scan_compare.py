@@ -459,3 +459,51 @@ def test_the_scan_with_a_square_root_fewer_per_falling_step():
             "run of the same commit") in flat  # fmt: skip
     spread = abs(scans["0e2c1d6"][1]["wall_s"] - before_wall["wall_s"])
     assert spread > 600 - wall["wall_s"]  # "a few seconds is also how much ... varies"
+
+
+def test_the_continuous_billiard_run_on_the_ensembles_event_path():
+    """docs/benchmarks.md on 8ec5687: the event loop from shared starts, the two bench runs
+    against 23fe8e0 and the flat-flight timing beside them, every number from the committed
+    files."""
+    text, flat, _ = benchmarks_page()
+    folder = ROOT / "docs" / "bench"
+    load = lambda name: json.loads((folder / name).read_text())  # noqa: E731
+    loop = load("billiard_runs_23fe8e0_8ec5687.json")
+    assert loop["trees"] == ["23fe8e0", "8ec5687"] and loop["rounds"] == 5
+    assert load_benchmark("billiard_runs").table(loop) in text
+    ratios = [row["ratio_to_first"][1] for row in loop["results"]]
+    assert min(ratios) > 1.0 and f"The loop gains {min(ratios):.3f}-{max(ratios):.3f}." in flat
+    at85 = next(row for row in loop["results"] if row["f"] == 85.2)
+    speed85 = at85["median_events_per_cpu_s"][1]
+    assert speed85 < 8e6 and f"it makes {speed85:.3g} events per CPU-second: still short" in flat
+    same = [row["f"] for row in loop["results"] if row["bitwise_as_first"][1]]
+    assert same == [58.0] and "in the same state in both trees only at 58 Hz" in flat
+    spread = max(max(r) / min(r) for row in loop["results"] for r in row["events_per_cpu_s"])
+    assert f"(at most {100 * (spread - 1):.1f} % between rounds of one tree)" in flat
+    bench = load("bench_trees_23fe8e0_8ec5687.json")
+    run1 = load("bench_trees_23fe8e0_8ec5687_run1.json")
+    trees = load_benchmark("bench_trees")
+    for target in ("flat", "billiard"):
+        assert trees.doc_table(bench, target) in text
+    one, cont, ens = bench["billiard"]
+    # "the two runs disagree far beyond the spread of the loop's rounds"
+    assert abs(run1["billiard"][1]["ratio"] - cont["ratio"]) > 3 * (spread - 1)
+    assert f"The continuous run** ({cont['ratio']:.3f})" in flat
+    assert f"2 repeats) gave {run1['billiard'][1]['ratio']:.3f}" in flat and run1["repeats"] == 2
+    assert f"One billiard flight** ({one['ratio']:.3f})" in flat
+    assert f"The ensemble** ({ens['ratio']:.3f})" in flat
+    r3, r1 = ([row["ratio"] for row in b["flat"]] for b in (bench, run1))
+    assert (f"The flat rows** ({min(r3):.3f}-{max(r3):.3f} here, "
+            f"{min(r1):.3f}-{max(r1):.3f} in the first run)") in flat  # fmt: skip
+    timing = load("flat_flights_23fe8e0_8ec5687.json")
+    a, b = timing["results"]
+    assert timing["trees"] == ["23fe8e0", "8ec5687"] and b["bitwise_as_first"]
+    assert (f"gives {b['ratio_to_first']:.3f} per flight ({a['median_ns_per_flight']:.1f} and "
+            f"{b['median_ns_per_flight']:.1f} ns") in flat  # fmt: skip
+    earlier = load("flat_flights_e7de300.json")["results"][0]
+    assert earlier["median_ns_per_flight"] < a["median_ns_per_flight"]  # "slower in this hour"
+    assert f"took {earlier['median_ns_per_flight']:.1f} ns in the previous section's run" in flat
+    flat_speed, cont_speed = bench["flat"][0]["8ec5687"]["speed"], cont["8ec5687"]["speed"]
+    assert flat_speed < 1e7 and cont_speed < 8e6
+    assert (f"out of reach: {flat_speed:.3g} impacts/s against 1e7 for the flat ball, and "
+            f"{cont_speed:.3g} collisions/s against 8e6") in flat  # fmt: skip
