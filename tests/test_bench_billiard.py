@@ -216,3 +216,19 @@ def test_the_docs_numbers_are_those_of_the_committed_run():
     for sentence in expected:
         assert sentence in text, sentence
     assert all(r["wrong_contacts"] == 0 for r in fixed.values())  # "no wrong contact"
+
+
+def test_compared_flights_start_from_the_fixed_attractor_state():
+    """CASE["attractor"] is a state just after an impact on the floor, and the compared
+    flights are the events of the kernel from it (not from a transient of its own)."""
+    from bbdyn.core.billiard import billiard_event
+
+    state = bench.CASE["attractor"]
+    kp = Params(f=bench.CASE["f"]).kernel()
+    assert state[6] == IMPACT and abs(state[3]) <= kp.d / 2 and state[5] > 0.0
+    states = bench.attractor_states(Params(f=bench.CASE["f"]), 3)
+    first = billiard_event(*state, kp)
+    assert first[7] == OK and states["periods"][0] >= state[0]
+    # the first event from it, up to the last bits in which the two event paths may differ
+    assert states["tile"][0] == first[2] and states["kind"][0] == first[6]
+    assert abs(states["phase"][0] - first[1]) < 1e-12 and abs(states["xi"][0] - first[3]) < 1e-12
