@@ -232,3 +232,8 @@ def test_compared_flights_start_from_the_fixed_attractor_state():
     # the first event from it, up to the last bits in which the two event paths may differ
     assert states["tile"][0] == first[2] and states["kind"][0] == first[6]
     assert abs(states["phase"][0] - first[1]) < 1e-12 and abs(states["xi"][0] - first[3]) < 1e-12
+    # then every STATE_STRIDE-th event of the same run
+    stride = bench.STATE_STRIDE
+    arrays = [np.empty(2 * stride) for _ in range(6)] + [np.empty(2 * stride, dtype=np.int64)]
+    assert billiard_run(*state, kp, *arrays) == (2 * stride, OK)
+    assert all(states[k][1] == arrays[i][stride] for i, k in enumerate(("periods", "phase")))

@@ -492,6 +492,9 @@ def test_the_continuous_billiard_run_on_the_ensembles_event_path():
     assert f"2 repeats) gave {run1['billiard'][1]['ratio']:.3f}" in flat and run1["repeats"] == 2
     assert f"One billiard flight** ({one['ratio']:.3f})" in flat
     assert f"the one-flight row moved by {one['ratio']:.3f} above on other flights alone" in flat
+    from bbdyn.scenes import b2_billiard
+
+    assert f"at every {b2_billiard.STATE_STRIDE}th event from there (`STATE_STRIDE`)" in flat
     assert f"The ensemble** ({ens['ratio']:.3f})" in flat
     r3, r1 = ([row["ratio"] for row in b["flat"]] for b in (bench, run1))
     assert (f"The flat rows** ({min(r3):.3f}-{max(r3):.3f} here, "
