@@ -38,6 +38,7 @@ def worker(events: int) -> None:
     import time
 
     from bbdyn.core.billiard import billiard_run_count
+    from bbdyn.core.status import OK
     from bbdyn.params import Params
     from bbdyn.scenes.b2_billiard import CASE
 
@@ -53,7 +54,7 @@ def worker(events: int) -> None:
             kp = Params(f=float(f)).kernel()
             cpu = time.process_time()
             out = billiard_run_count(*s[:6], int(s[6]), kp, events)
-            rates[f] = events / (time.process_time() - cpu) if out[8] == 0 else float("nan")
+            rates[f] = events / (time.process_time() - cpu) if out[8] == OK else float("nan")
             final[f] = [float(x) for x in out[:7]]
         print(json.dumps({"rates": rates, "final": final}), flush=True)
 

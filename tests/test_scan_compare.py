@@ -467,7 +467,10 @@ def test_the_continuous_billiard_run_on_the_ensembles_event_path():
     files."""
     text, flat, _ = benchmarks_page()
     folder = ROOT / "docs" / "bench"
-    load = lambda name: json.loads((folder / name).read_text())  # noqa: E731
+
+    def load(name: str) -> dict:
+        return json.loads((folder / name).read_text())
+
     loop = load("billiard_runs_23fe8e0_8ec5687.json")
     assert loop["trees"] == ["23fe8e0", "8ec5687"] and loop["rounds"] == 5
     assert load_benchmark("billiard_runs").table(loop) in text

@@ -662,6 +662,14 @@ def collide_trig(periods, phase, sn, cs, tile, xi, vx, vyrel, kp):
     return periods, phase, tile, xi, vx, vyrel, IMPACT, OK, sn, cs, S
 
 
+@njit(cache=True, fastmath=FMA, inline="always")
+def event_carry(phase, xi, kp):
+    """``(sn, cs, S)``: ``sin_cos(phase)`` and ``arc_root(xi)`` (mm) of an event state, the
+    values an event loop carries from one event to the next (``billiard_event_trig``)."""
+    sn, cs = sin_cos(phase)
+    return sn, cs, arc_root(xi, kp)
+
+
 @njit(cache=True, fastmath=FMA)
 def billiard_event_rule(periods, phase, tile, xi, vx, vyrel, kind, kp, cubic):
     """``event_search`` from the phase alone; returns its event state without the trig.
@@ -672,8 +680,7 @@ def billiard_event_rule(periods, phase, tile, xi, vx, vyrel, kind, kp, cubic):
     >>> ev[-1] == OK and ev[0] + ev[1] > 0.0
     True
     """
-    sn, cs = sin_cos(phase)
-    S = arc_root(xi, kp)
+    sn, cs, S = event_carry(phase, xi, kp)
     out = event_search(periods, phase, sn, cs, S, tile, xi, vx, vyrel, kind, kp, cubic)
     return out[:8]
 
@@ -775,8 +782,7 @@ def billiard_run(
     The loop carries each event's sine, cosine and arc root (``billiard_event_trig``, as
     the ensemble does), computed once per event.
     """
-    sn, cs = sin_cos(phase)
-    S = arc_root(xi, kp)
+    sn, cs, S = event_carry(phase, xi, kp)
     for i in range(out_phase.shape[0]):
         periods, phase, tile, xi, vx, vyrel, kind, status, sn, cs, S = billiard_event_trig(
             periods, phase, sn, cs, S, tile, xi, vx, vyrel, kind, kp
@@ -800,8 +806,7 @@ def billiard_run_count(periods, phase, tile, xi, vx, vyrel, kind, kp, n_events):
     Returns the final ``(periods, phase, tile, xi, vx, vyrel, kind, n_done, status)``;
     the events of ``billiard_run``, with the same carried sine, cosine and arc root.
     """
-    sn, cs = sin_cos(phase)
-    S = arc_root(xi, kp)
+    sn, cs, S = event_carry(phase, xi, kp)
     for i in range(n_events):
         periods, phase, tile, xi, vx, vyrel, kind, status, sn, cs, S = billiard_event_trig(
             periods, phase, sn, cs, S, tile, xi, vx, vyrel, kind, kp

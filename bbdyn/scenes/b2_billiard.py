@@ -47,10 +47,10 @@ from bbdyn.core.billiard import (
     billiard_flight,
     billiard_run,
     billiard_run_count,
+    event_carry,
     snap_to_wedge,
 )
-from bbdyn.core.floor import arc_root, bounce
-from bbdyn.core.plate import sin_cos
+from bbdyn.core.floor import bounce
 from bbdyn.core.status import IMPACT, OK, STICK, raise_for_status
 from bbdyn.core.tolerances import EPS, ROOT_STEP_REL
 from bbdyn.params import Params
@@ -86,8 +86,7 @@ __all__ = [
 #: ``start`` first; ``attractor`` is where that transient ended at 85.2 Hz at 8ec5687, fixed
 #: here (as ``b2_flat.CASE`` fixes its start) so that the compared flights and the continuous
 #: run start from the same state whatever the last bits of the kernel under test; the
-#: flights after it still part between kernels that differ in the last bit, a few hundred
-#: events on.
+#: flights after it still part where two kernels' trajectories do.
 CASE = {
     "f": 85.2,
     "start": (0.0, 0.0, 0.0, 0.3, 10.0, 40.0, IMPACT),
@@ -99,7 +98,8 @@ CASE = {
 
 #: The compared flights start at every STATE_STRIDE-th event from ``CASE["attractor"]``:
 #: consecutive events are correlated (a chattering sequence, a stretch of long flights), and
-#: 400 of them in a row priced one flight 15 % differently from another 400 in a row.
+#: a stretch of them is a poor sample (docs/benchmarks.md, "The continuous billiard run on
+#: the ensemble's event path").
 STATE_STRIDE = 50
 
 #: A flight whose time differs from the reference by more than this fraction of
@@ -186,8 +186,8 @@ def _continuous(state, kp, n_events):
 
 @njit(cache=True)
 def flight_profile(state, kp, n_events):
-    """Cost profile of ``n_events`` events from ``state``: the events of ``_continuous``
-    (the same event path, ``billiard_event_trig``, so the same trajectory to the last bit).
+    """Cost profile of ``n_events`` events from ``state``, on the event path of
+    ``_continuous`` (``billiard_event_trig``).
 
     Returns ``(steps, flights, tiny, collisions, sticks, status)``: safe steps summed over
     flights, flights, flights solved without a safe step (tiny hops, ``tiny_hop``),
@@ -195,8 +195,7 @@ def flight_profile(state, kp, n_events):
     """
     periods, phase, tile, xi, vx, vyrel = state[0], state[1], state[2], state[3], state[4], state[5]
     kind = int(state[6])
-    sn, cs = sin_cos(phase)
-    S = arc_root(xi, kp)
+    sn, cs, S = event_carry(phase, xi, kp)
     steps = 0
     flights = 0
     tiny = 0
