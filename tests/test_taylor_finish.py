@@ -25,8 +25,8 @@ from bbdyn.core.billiard import crossing_time, segment_gap_phase, tile_offset
 from bbdyn.core.floor import arc_root
 from bbdyn.core.plate import sin_cos
 from bbdyn.core.status import OK
-from bbdyn.core.taylor import drive_tail, taylor_finish
-from bbdyn.core.tolerances import EPS
+from bbdyn.core.taylor import drive_remainder, drive_tail, taylor_finish
+from bbdyn.core.tolerances import EPS, TAYLOR_DEGREE
 
 FREQS = (50.2, 70.2, 85.2)
 
@@ -159,22 +159,47 @@ def test_random_flights_on_hard_floors(params):
     _check_against_quadratic_search(kp, starts, out)
 
 
-@pytest.mark.parametrize("N", [4, 5, 6, 7, 10, 15, 16])
-def test_drive_tail_is_the_sum_it_stands_for(N):
-    """``drive_tail`` against its definition summed in mpmath, ``T = sum_{n=5..N} s_n
+def test_drive_tail_is_the_sum_it_stands_for():
+    """``drive_tail`` against its definition summed in mpmath, ``T = sum_{n=5..16} s_n
     y^(n-5) / n!`` and ``T' = sum s_n y^(n-5) / (n-1)!``, to a few ulp of their first terms
-    (1/120 and 1/24; N = 4: no tail, both 0)."""
+    (1/120 and 1/24), over the spans the finish accepts (|y| < TAYLOR_MAX_SPAN, and beyond)."""
     import mpmath
 
     mpmath.mp.dps = 40
+    N = TAYLOR_DEGREE
     rng = np.random.default_rng(N)
     derivs = [mpmath.sin, mpmath.cos, lambda t: -mpmath.sin(t), lambda t: -mpmath.cos(t)]
-    for _ in range(50):
+    for _ in range(300):
         theta, y = rng.uniform(0.0, 2 * math.pi), rng.uniform(-0.6, 0.6)
-        T, Tp = drive_tail.py_func(y, math.sin(theta), math.cos(theta), N)
+        T, Tp = drive_tail.py_func(y, math.sin(theta), math.cos(theta))
         s = [derivs[n % 4](mpmath.mpf(theta)) for n in range(N + 1)]
         y_mp = mpmath.mpf(y)
         T_ref = sum(s[n] * y_mp ** (n - 5) / mpmath.factorial(n) for n in range(5, N + 1))
         Tp_ref = sum(s[n] * y_mp ** (n - 5) / mpmath.factorial(n - 1) for n in range(5, N + 1))
         assert abs(T - float(T_ref)) <= 8 * EPS / 120
         assert abs(Tp - float(Tp_ref)) <= 8 * EPS / 24
+
+
+def test_drive_remainder_bounds_the_rates_rest_of_the_series():
+    """``drive_remainder(A w, x)`` bounds the drive's rate beyond degree 16 over the span ``x =
+    w u``: ``|A w (cos(theta + y) - sum_{n<16} s_{n+1} y^n / n!)| <= A w x^16 / 16!`` for
+    ``|y| <= x``, and is the first omitted term's size (not a loose bound: within 2x of the
+    remainder's largest value at theta where the term is largest)."""
+    import mpmath
+
+    mpmath.mp.dps = 50
+    aw = 51.5
+    derivs = [mpmath.sin, mpmath.cos, lambda t: -mpmath.sin(t), lambda t: -mpmath.cos(t)]
+    worst = 0.0
+    for x in (0.05, 0.2, 0.5):
+        bound = drive_remainder.py_func(aw, x)
+        for theta in np.linspace(0.0, 2 * math.pi, 17):
+            th = mpmath.mpf(theta)
+            for y in (x, -x):
+                y_mp = mpmath.mpf(y)
+                terms = (derivs[(n + 1) % 4](th) * y_mp**n / mpmath.factorial(n) for n in range(16))
+                series = sum(terms)
+                rest = abs(aw * (mpmath.cos(th + y_mp) - series))
+                assert rest <= bound * (1 + 1e-12)
+                worst = max(worst, float(rest / bound))
+    assert worst > 0.5
