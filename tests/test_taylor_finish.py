@@ -2,7 +2,7 @@
 (core.taylor.taylor_finish).
 
 Once the safe-step search is near a transversal contact (the gap falling, ``G / |G'|``
-below a quarter radian of the drive), the contact is solved by Newton on the gap's Taylor
+below half a radian of the drive), the contact is solved by Newton on the gap's Taylor
 polynomial instead of more steps.  Checked against the independent quadratic-step search
 and mpmath, on the flights of runs at 50-85 Hz and on random flights over hard floors; and
 directly, from points just before a known contact, on what it must solve and refuse.
@@ -133,14 +133,19 @@ def test_taylor_finish_refuses_what_it_cannot_prove():
         )[3]
 
     assert attempt(0.01, 1e-3, -20.0)  # a transversal landing well on the arc: solved
-    assert not attempt(0.01, 1e-3, -20.0, room=5e-5)  # a wedge before 2 G / |G'|: refused
-    assert not attempt(0.01, 0.5, -20.0)  # far from the floor (w u_max = 24 rad): refused
-    assert not attempt(1e-5, 1e-3, -20.0)  # 2 G / |G'| longer than the flight so far
+    assert not attempt(0.01, 1e-3, -20.0, room=4e-5)  # a wedge before G / |G'|: refused
+    assert not attempt(0.01, 0.5, -20.0)  # far from the floor (w G / |G'| = 11 rad): refused
+    assert not attempt(4e-5, 1e-3, -20.0)  # G / |G'| longer than the flight so far
+    # w G / |G'| = 0.4 rad: solved where the gap is concave up to G / |G'| (u_max = G / |G'|),
+    # refused where the floor falls faster than g (u_max = 2 G / |G'|, 0.8 rad, too far)
+    G_far = 0.4 / kp.w * 20.0
+    assert attempt(0.01, G_far, -20.0)
     # the floor falling faster than g (sin < -1/Gamma): G'' > 0 may turn a slow descent
     # around before the floor is reached, refused; a fast one is still solved
     down = -0.99, math.sqrt(1 - 0.99**2)
     assert not attempt(0.01, 1e-5, -0.5, phase_sin=down[0], phase_cos=down[1])
     assert attempt(0.01, 1e-3, -50.0, phase_sin=down[0], phase_cos=down[1])
+    assert not attempt(0.01, G_far, -20.0, phase_sin=down[0], phase_cos=down[1])
 
 
 @pytest.mark.parametrize(

@@ -411,7 +411,7 @@ def flight_search(phase, sn, cs, xi0, S0, vx, vyrel, kp, cubic):
         known = False
         if G <= 0.0 and tau > 0.0:
             return tau, k + k_base, xi, G_envp, n, OK
-        if cubic and Gp < 0.0 and w * G < (-0.5 * TAYLOR_MAX_SPAN) * Gp:
+        if cubic and Gp < 0.0 and w * G < -TAYLOR_MAX_SPAN * Gp:
             u, xi_c, Fp_c, solved = taylor_finish(
                 tau, G, Gp, G_envp, sn_t, cn_t, xi, S, vx, tc - tau, kp
             )

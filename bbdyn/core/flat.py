@@ -234,7 +234,7 @@ def flat_flight_tol(phase, vrel, kp, step_rel):
     for _ in range(ROOT_MAX_STEPS):
         if G <= 0.0 and tau > 0.0:
             return tau, min(Gp, 0.0), OK, n_evals
-        if finish and Gp < 0.0 and w * G < (-0.5 * TAYLOR_MAX_SPAN) * Gp:
+        if finish and Gp < 0.0 and w * G < -TAYLOR_MAX_SPAN * Gp:
             # the billiard's Taylor finish on the flat gap (xi = vx = 0: no arc terms)
             u, _, Gp_c, solved = taylor_finish(tau, G, Gp, Gp, sn, cn, 0.0, kp.R, 0.0, math.inf, kp)
             if solved:

@@ -143,12 +143,14 @@ def taylor_finish(tau, G, Gp, Fp, sn, cs, xi, S, vx, room, kp):
         G(tau + u) = G + Gp u + g_2 u^2/2 + g_3 u^3/6 + g_4 u^4/24
                      + A sum_{n=5..16} s_n (w u)^n / n! + r(u).
 
-    Accepted only if, up to ``u_max = 2 G / |Gp|`` (twice the tangent line's landing):
+    Accepted only if, up to ``u_max`` (``w u_max < TAYLOR_MAX_SPAN``):
 
     * the particle stays on the tile (``u_max < room``), and ``u_max <= tau``;
-    * G keeps falling: ``G' <= Gp + u_max max(0, g_2 + K3 u_max) = G'_max <= Gp / 2`` (``K3``
-      of ``gap_jerk_bound``), so the contact is the only root and lies before u_max
-      (``G(u_max) <= G + G'_max u_max < 0``);
+    * G keeps falling, so that the contact is the only root and lies before u_max
+      (``G(u_max) <= G + G'_max u_max < 0``), with ``K3`` of ``gap_jerk_bound``: where G is
+      concave up to the tangent line's landing ``u0 = G / |Gp|`` (``g_2 + K3 u0 <= 0``),
+      ``u_max = u0`` and ``G' <= G'_max = Gp``; elsewhere ``u_max = 2 u0`` and ``G' <= Gp +
+      u_max (g_2 + K3 u_max) = G'_max <= Gp / 2``;
     * the remainder moves it by less than eps tau (the safe-step search stops at
       ``ROOT_STEP_REL`` tau): the drive's remainder after degree 16 in the rate
       (``drive_remainder``) is below eps ``|G'_max|`` (the root moves by less than eps
@@ -164,15 +166,22 @@ def taylor_finish(tau, G, Gp, Fp, sn, cs, xi, S, vx, room, kp):
     aw = A * w
     fail = (0.0, xi, Fp, False)
     u0 = G / -Gp
-    u_max = 2.0 * u0
-    x = w * u_max
-    if not (x < TAYLOR_MAX_SPAN and u_max < room and u_max <= tau):
+    if not (w * u0 < TAYLOR_MAX_SPAN and u0 < room and u0 <= tau):
         return fail
     F2, g2, g3, g4 = gap_coefficients(sn, cs, xi, S, vx, kp)
     K3 = gap_jerk_bound(vx, kp)
-    slope = -(Gp + u_max * max(0.0, g2 + K3 * u_max))  # |G'| >= slope on [0, u_max]
-    if not slope >= -0.5 * Gp:
-        return fail
+    if g2 + K3 * u0 <= 0.0:
+        # concave up to u0: G' <= Gp there, so G(u0) < 0 and the contact is its only root
+        u_max = u0
+        slope = -Gp
+    else:
+        u_max = 2.0 * u0
+        slope = -(Gp + u_max * (g2 + K3 * u_max))  # |G'| >= slope on [0, u_max]
+        if not (w * u_max < TAYLOR_MAX_SPAN and u_max < room and u_max <= tau):
+            return fail
+        if not slope >= -0.5 * Gp:
+            return fail
+    x = w * u_max
     if not (
         drive_remainder(aw, x) <= EPS * slope
         and arc_remainder(vx, u_max, kp) <= 0.5 * EPS * slope * tau

@@ -72,7 +72,7 @@ WEDGE_MAX_REFLECTIONS = 16
 
 #: Contacts from the Taylor polynomial of the gap (``billiard.tiny_hop``, a chattering hop
 #: from its impact; ``taylor.taylor_finish``, the end of a descending flight): tried when
-#: the polynomial's span ``w u_max`` (rad; ``u_max`` twice the first guess) is below
+#: the polynomial's span ``w u_max`` (rad; ``u_max`` the first guess or twice it) is below
 #: TAYLOR_MAX_SPAN and the drive's remainder after degree TAYLOR_DEGREE in the rate is
 #: below eps of it (``taylor.drive_tail`` sums the terms 5 to 16 by fixed Horner chains);
 #: Newton stops once the error its last step leaves is below TAYLOR_NEWTON_REL of the
