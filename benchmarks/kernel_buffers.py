@@ -18,9 +18,11 @@ Usage::
 import argparse
 import json
 import os
+import shutil
 import statistics
 import subprocess
 import sys
+import tempfile
 import time
 
 
@@ -63,7 +65,12 @@ def ask(proc: subprocess.Popen, f: float) -> dict:
 
 def compare(args) -> dict:
     """Interleaved repeats on both trees; medians of events per CPU-second and their ratio."""
-    procs = [start(tree, args) for tree in args.trees]
+    # a new numba cache per tree: a tree's own __pycache__ may hold a kernel compiled before an
+    # edit to a module it calls (numba checks only the defining file), and would time that
+    folder = tempfile.mkdtemp(prefix="kernel_buffers_")
+    procs = [
+        start(tree, args, os.path.join(folder, f"cache{i}")) for i, tree in enumerate(args.trees)
+    ]
     rates = {(tree, f): [] for tree in args.trees for f in args.f}
     events = {}
     for proc in procs:  # compile (or load the cache) and warm up
@@ -80,6 +87,7 @@ def compare(args) -> dict:
     for proc in procs:
         proc.stdin.close()
         proc.wait()
+    shutil.rmtree(folder)
     report = {"n": args.n, "t": args.t, "repeats": args.repeats, "fast_forward": args.fast_forward}
     report["trees"] = [tree_label(tree) for tree in args.trees]
     report["results"] = []
