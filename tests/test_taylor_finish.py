@@ -25,8 +25,8 @@ from bbdyn.core.billiard import crossing_time, segment_gap_phase, tile_offset
 from bbdyn.core.floor import arc_root
 from bbdyn.core.plate import sin_cos
 from bbdyn.core.status import OK
-from bbdyn.core.taylor import drive_remainder, drive_tail, taylor_finish
-from bbdyn.core.tolerances import EPS, TAYLOR_DEGREE
+from bbdyn.core.taylor import drive_tail, tail_terms, taylor_finish
+from bbdyn.core.tolerances import EPS
 
 FREQS = (50.2, 70.2, 85.2)
 
@@ -164,19 +164,20 @@ def test_random_flights_on_hard_floors(params):
     _check_against_quadratic_search(kp, starts, out)
 
 
-def test_drive_tail_is_the_sum_it_stands_for():
-    """``drive_tail`` against its definition summed in mpmath, ``T = sum_{n=5..16} s_n
-    y^(n-5) / n!`` and ``T' = sum s_n y^(n-5) / (n-1)!``, to a few ulp of their first terms
-    (1/120 and 1/24), over the spans the finish accepts (|y| < TAYLOR_MAX_SPAN, and beyond)."""
+@pytest.mark.parametrize("K", [0, 2, 6])
+def test_drive_tail_is_the_sum_it_stands_for(K):
+    """``drive_tail`` with K terms per chain against its definition summed in mpmath to degree
+    ``N = 2 K + 4``, ``T = sum_{n=5..N} s_n y^(n-5) / n!`` and ``T' = sum s_n y^(n-5) /
+    (n-1)!``, to a few ulp of their first terms (1/120 and 1/24; K = 0: no tail, both 0)."""
     import mpmath
 
     mpmath.mp.dps = 40
-    N = TAYLOR_DEGREE
+    N = 2 * K + 4
     rng = np.random.default_rng(N)
     derivs = [mpmath.sin, mpmath.cos, lambda t: -mpmath.sin(t), lambda t: -mpmath.cos(t)]
-    for _ in range(300):
+    for _ in range(100):
         theta, y = rng.uniform(0.0, 2 * math.pi), rng.uniform(-0.6, 0.6)
-        T, Tp = drive_tail.py_func(y, math.sin(theta), math.cos(theta))
+        T, Tp = drive_tail.py_func(y, math.sin(theta), math.cos(theta), K)
         s = [derivs[n % 4](mpmath.mpf(theta)) for n in range(N + 1)]
         y_mp = mpmath.mpf(y)
         T_ref = sum(s[n] * y_mp ** (n - 5) / mpmath.factorial(n) for n in range(5, N + 1))
@@ -185,26 +186,38 @@ def test_drive_tail_is_the_sum_it_stands_for():
         assert abs(Tp - float(Tp_ref)) <= 8 * EPS / 24
 
 
-def test_drive_remainder_bounds_the_rates_rest_of_the_series():
-    """``drive_remainder(A w, x)`` bounds the drive's rate beyond degree 16 over the span ``x =
-    w u``: ``|A w (cos(theta + y) - sum_{n<16} s_{n+1} y^n / n!)| <= A w x^16 / 16!`` for
-    ``|y| <= x``, and is the first omitted term's size (not a loose bound: within 2x of the
-    remainder's largest value at theta where the term is largest)."""
+def test_tail_terms_picks_the_lowest_degree_whose_remainder_is_within_budget():
+    """``tail_terms(A w, x, budget)`` returns the fewest terms K (degree N = 2 K + 4 of 4, 8,
+    16) for which the drive's rate beyond degree N, ``A w (cos(theta + y) - sum_{n<N} s_{n+1}
+    y^n / n!)`` for ``|y| <= x``, is at most ``budget`` (checked in mpmath, at 17 phases), and
+    the next lower degree's bound ``A w x^N / N!`` exceeds it; -1 when degree 16 does not
+    suffice."""
     import mpmath
 
     mpmath.mp.dps = 50
     aw = 51.5
     derivs = [mpmath.sin, mpmath.cos, lambda t: -mpmath.sin(t), lambda t: -mpmath.cos(t)]
-    worst = 0.0
-    for x in (0.05, 0.2, 0.5):
-        bound = drive_remainder.py_func(aw, x)
+
+    def rest(N, x):  # the largest |rate beyond degree N| over the phases, at y = +-x
+        worst = mpmath.mpf(0)
         for theta in np.linspace(0.0, 2 * math.pi, 17):
             th = mpmath.mpf(theta)
-            for y in (x, -x):
-                y_mp = mpmath.mpf(y)
-                terms = (derivs[(n + 1) % 4](th) * y_mp**n / mpmath.factorial(n) for n in range(16))
-                series = sum(terms)
-                rest = abs(aw * (mpmath.cos(th + y_mp) - series))
-                assert rest <= bound * (1 + 1e-12)
-                worst = max(worst, float(rest / bound))
-    assert worst > 0.5
+            for y in (mpmath.mpf(x), -mpmath.mpf(x)):
+                terms = (derivs[(n + 1) % 4](th) * y**n / mpmath.factorial(n) for n in range(N))
+                worst = max(worst, abs(aw * (mpmath.cos(th + y) - sum(terms))))
+        return worst
+
+    seen = set()
+    for x in (1e-4, 1e-3, 0.01, 0.05, 0.2, 0.5, 0.9):
+        for budget in (1e-14, 1e-12, 1e-9):
+            K = tail_terms.py_func(aw, x, budget)
+            seen.add(K)
+            if K < 0:
+                assert aw * x**16 / math.factorial(16) > budget
+                continue
+            N = 2 * K + 4
+            assert rest(N, x) <= budget
+            if K > 0:
+                lower = {2: 4, 6: 8}[K]
+                assert aw * x**lower / math.factorial(lower) > budget
+    assert seen == {-1, 0, 2, 6}

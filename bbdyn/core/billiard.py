@@ -85,11 +85,11 @@ from bbdyn.core.status import (
 )
 from bbdyn.core.taylor import (
     arc_remainder,
-    drive_remainder,
     gap_coefficients,
     gap_jerk_bound,
     gap_series,
     series_rate,
+    tail_terms,
     taylor_finish,
 )
 from bbdyn.core.tolerances import (
@@ -222,13 +222,13 @@ def tiny_hop(sn, cs, xi0, S0, vx, vyrel, Gp, kp):
     From an impact at phase theta (``sn, cs`` its sine and cosine) at ``xi0`` (``S0 =
     sqrt(R^2 - xi0^2)``) with gap rate ``Gp = G'(0) > 0``, the gap over the tile is
 
-        G(tau) = sum_{n=1..16} g_n tau^n / n! + r(tau),   g_n = F_n + B_n,
+        G(tau) = sum_{n=1..N} g_n tau^n / n! + r(tau),   g_n = F_n + B_n,
         F_1 = vyrel, F_2 = -g - A w^2 sin, F_n = A w^n sin^(n)(theta) for n >= 3
         (the flat gap: F_3 = -A w^3 cos, F_4 = A w^4 sin, F_5 = A w^5 cos, ...),
         B_1 = vx xi0 / S0, B_2 = R^2 vx^2 / S0^3, B_3 = 3 R^2 xi0 vx^3 / S0^5,
         B_4 = 3 R^2 (R^2 + 4 xi0^2) vx^4 / S0^7, B_n = 0 for n >= 5  (the arc, b(xi0) - b(xi))
 
-    with ``|r| <= A w^17 tau^17 / 17! + C5 |vx|^5 tau^5 / 5!``, ``C5 = 15 R^2 h (3
+    with ``|r| <= A w^(N+1) tau^(N+1) / (N+1)! + C5 |vx|^5 tau^5 / 5!``, ``C5 = 15 R^2 h (3
     R^2 + 4 h^2) / c0^9`` (``kp.arc5_bound``) bounding the fifth derivative of S on the tile
     (h = d/2).  Accepted only if, up to ``tau_max = 2 tau_0`` (``tau_0 = -2 g_1 / g_2``, the
     parabola's hop):
@@ -236,8 +236,9 @@ def tiny_hop(sn, cs, xi0, S0, vx, vyrel, Gp, kp):
     * the particle stays on the tile and ``G'' <= g_2 + K3 tau_max < 0``, with ``K3`` bounding
       the third derivative (``gap_jerk_bound``): G is concave, so its only root in ``(0,
       tau_max]`` is the contact (``G(tau_max) < 0`` follows from the same bound);
-    * the remainder moves that root by less than eps tau_0: the drive's remainder in the
-      rate (``drive_remainder``) is below eps g_1 (in the gap below 2 eps g_1 tau_0 / 17), and
+    * the remainder moves that root by less than eps tau_0: N = 4, 8 or 16 (``tail_terms``)
+      puts the drive's remainder in the rate below eps g_1 (in the gap below 0.4 eps g_1
+      tau_0), and
       the arc's is below eps g_1 tau_0 / 2.
 
     The root of ``G / tau`` (no root at 0, no cancellation) is then found by Newton from
@@ -257,7 +258,8 @@ def tiny_hop(sn, cs, xi0, S0, vx, vyrel, Gp, kp):
     if not (x < TAYLOR_MAX_SPAN and abs(xi0 + vx * tau_max) < half):
         return fail
     K3 = gap_jerk_bound(vx, kp)
-    if not (drive_remainder(aw, x) <= EPS * Gp and g2 + K3 * tau_max < 0.0):
+    K = tail_terms(aw, x, EPS * Gp)
+    if not (K >= 0 and g2 + K3 * tau_max < 0.0):
         return fail
     if not arc_remainder(vx, tau_max, kp) <= 0.5 * EPS * Gp * tau0:
         return fail
@@ -265,7 +267,7 @@ def tiny_hop(sn, cs, xi0, S0, vx, vyrel, Gp, kp):
     q2, q3 = g3 * (1.0 / 6.0), g4 * (1.0 / 24.0)
     t = tau0
     for _ in range(TAYLOR_NEWTON_MAX):
-        P, dG = gap_series(t, 0.0, Gp, g2, g3, g4, sn, cs, A, w)
+        P, dG = gap_series(t, 0.0, Gp, g2, g3, g4, sn, cs, A, w, K)
         # Q = P / t, t^2 Q' = dG t - P: the step Q / Q' with one division
         t_old = t
         t2_dQ = dG * t - P
@@ -280,7 +282,7 @@ def tiny_hop(sn, cs, xi0, S0, vx, vyrel, Gp, kp):
         return fail
     if not 0.0 < t < tau_max:
         return fail
-    return t, xi0 + vx * t, series_rate(t, vyrel, F2, sn, cs, A, w), True
+    return t, xi0 + vx * t, series_rate(t, vyrel, F2, sn, cs, A, w, K), True
 
 
 @njit(cache=True, fastmath=FMA)

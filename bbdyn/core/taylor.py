@@ -3,9 +3,9 @@
 Shared by the billiard's flights (``billiard.py``: ``tiny_hop`` and ``taylor_finish``) and
 the flat ball's (``flat.py``: ``taylor_finish`` with ``xi = vx = 0``, where the arc's terms
 vanish and the gap is the flat one).  The coefficients are those of ``tiny_hop``'s docstring
-(``billiard.py``); the drive's terms of degree 5 to TAYLOR_DEGREE (16) are summed by three
-fixed Horner chains (``drive_tail``), used where their remainder is below eps of the rate
-(``drive_remainder``).
+(``billiard.py``); the drive's terms of degree 5 and above are summed to degree 4, 8 or
+TAYLOR_DEGREE (16), the lowest of these whose remainder is below eps of the rate
+(``tail_terms``), by written-out Horner chains (``drive_tail``).
 """
 
 import math
@@ -21,43 +21,56 @@ from bbdyn.core.tolerances import (
     TAYLOR_NEWTON_REL,
 )
 
-#: Coefficients of the three polynomials in ``z = y^2`` that make up the drive's tail to
-#: degree TAYLOR_DEGREE (``drive_tail``): ``(-1)^k / (2k + j)!`` for j = 4, 5, 6.
-_TAIL_FROM = tuple(
-    tuple((-1) ** k / math.factorial(2 * k + j) for k in range((TAYLOR_DEGREE - 4) // 2))
-    for j in (4, 5, 6)
-)
-_C4, _C5, _C6 = _TAIL_FROM
-assert len(_C4) == 6 and TAYLOR_DEGREE == 16  # drive_tail's Horner schemes are written out
-_INV_DEGREE_FACTORIAL = 1.0 / math.factorial(TAYLOR_DEGREE)
+#: Coefficients of the polynomials in ``z = y^2`` that make up the drive's tail
+#: (``drive_tail``): ``(-1)^k / (2k + j)!`` for j = 4, 5, 6 and k = 0 .. 5.
+_C4, _C5, _C6 = (tuple((-1) ** k / math.factorial(2 * k + j) for k in range(6)) for j in (4, 5, 6))
+assert TAYLOR_DEGREE == 16  # drive_tail's Horner chains are written out to degree 16
+#: 1 / N! for the degrees N = 4, 8, 16 that ``drive_tail`` offers.
+_INV_4, _INV_8, _INV_16 = (1.0 / math.factorial(n) for n in (4, 8, 16))
 
 
 @njit(cache=True, fastmath=FMA, inline="always")
-def drive_remainder(aw, x):
-    """Bound (mm/s) of the drive's remainder in the rate after degree TAYLOR_DEGREE over the
-    span ``x = w u_max`` (rad; ``aw = A w``): ``A w x^16 / 16!``.  The remainder in the gap is
-    at most ``u_max / 17`` times that (``|d^n/du^n A sin(theta + w u)| <= A w^n``)."""
+def tail_terms(aw, x, budget):
+    """Terms per Horner chain of ``drive_tail``: 0, 2 or 6, the drive summed to degree
+    ``N = 2 K + 4`` = 4, 8 or TAYLOR_DEGREE (16); the fewest whose remainder in the rate,
+    ``A w x^N / N!`` over the span ``x = w u_max`` (rad; ``aw = A w``), is at most ``budget``
+    (mm/s), or -1 if degree 16 leaves more.  The remainder in the gap is then at most
+    ``u_max / (N + 1)`` times that (``|d^n/du^n A sin(theta + w u)| <= A w^n``).  Three
+    degrees rather than the lowest sufficient one: docs/benchmarks.md compares the choices."""
     x2 = x * x
     x4 = x2 * x2
     x8 = x4 * x4
-    return aw * (x8 * x8) * _INV_DEGREE_FACTORIAL
+    if aw * x4 * _INV_4 <= budget:
+        return 0
+    if aw * x8 * _INV_8 <= budget:
+        return 2
+    if aw * (x8 * x8) * _INV_16 <= budget:
+        return 6
+    return -1
 
 
 @njit(cache=True, fastmath=FMA, inline="always")
-def drive_tail(y, sn, cs):
-    """``(T, T')``: ``T = sum_{n=5..16} s_n y^(n-5) / n!``, ``T' = sum_{n=5..16} s_n y^(n-5) /
-    (n-1)!`` with ``s_n = sin^(n)(theta)`` (``sn, cs`` its sine and cosine).  The drive's terms
-    of degree >= 5 are ``A y^5 T`` in the gap and ``A w y^4 T'`` in its rate (``y = w u``).
+def drive_tail(y, sn, cs, K):
+    """``(T, T')`` to degree ``N = 2 K + 4`` (``K`` of ``tail_terms``): ``T = sum_{n=5..N}
+    s_n y^(n-5) / n!``, ``T' = sum_{n=5..N} s_n y^(n-5) / (n-1)!`` with ``s_n =
+    sin^(n)(theta)`` (``sn, cs`` its sine and cosine).  The drive's terms of degree >= 5 are
+    ``A y^5 T`` in the gap and ``A w y^4 T'`` in its rate (``y = w u``).
 
-    Split by the sign pattern of ``s_n`` (cos, -sin, -cos, sin, ...) into fixed polynomials of
-    ``z = y^2``, ``T = cos C5(z) - sin y C6(z)`` and ``T' = cos C4(z) - sin y C5(z)`` with
-    ``Cj(z) = sum_k (-1)^k z^k / (2k + j)!``: three short Horner chains side by side, with no
-    loop and no branch on the degree.
+    Split by the sign pattern of ``s_n`` (cos, -sin, -cos, sin, ...) into polynomials of ``z =
+    y^2``, ``T = cos C5(z) - sin y C6(z)`` and ``T' = cos C4(z) - sin y C5(z)`` with ``Cj(z) =
+    sum_{k<K} (-1)^k z^k / (2k + j)!``: three short Horner chains side by side, no loop.
     """
+    if K == 0:
+        return 0.0, 0.0
     z = y * y
-    c4 = _C4[0] + z * (_C4[1] + z * (_C4[2] + z * (_C4[3] + z * (_C4[4] + z * _C4[5]))))
-    c5 = _C5[0] + z * (_C5[1] + z * (_C5[2] + z * (_C5[3] + z * (_C5[4] + z * _C5[5]))))
-    c6 = _C6[0] + z * (_C6[1] + z * (_C6[2] + z * (_C6[3] + z * (_C6[4] + z * _C6[5]))))
+    if K == 2:
+        c4 = _C4[0] + z * _C4[1]
+        c5 = _C5[0] + z * _C5[1]
+        c6 = _C6[0] + z * _C6[1]
+    else:
+        c4 = _C4[0] + z * (_C4[1] + z * (_C4[2] + z * (_C4[3] + z * (_C4[4] + z * _C4[5]))))
+        c5 = _C5[0] + z * (_C5[1] + z * (_C5[2] + z * (_C5[3] + z * (_C5[4] + z * _C5[5]))))
+        c6 = _C6[0] + z * (_C6[1] + z * (_C6[2] + z * (_C6[3] + z * (_C6[4] + z * _C6[5]))))
     sy = sn * y
     return cs * c5 - sy * c6, cs * c4 - sy * c5
 
@@ -106,12 +119,12 @@ def arc_remainder(vx, u, kp):
 
 
 @njit(cache=True, fastmath=FMA, inline="always")
-def gap_series(t, G, Gp, g2, g3, g4, sn, cs, A, w):
+def gap_series(t, G, Gp, g2, g3, g4, sn, cs, A, w, K):
     """The gap's Taylor polynomial (mm) and its rate (mm/s) ``t`` s after a point where they
     are ``G, Gp``: ``G + Gp t + g_2 t^2/2 + g_3 t^3/6 + g_4 t^4/24 + A y^5 T`` and its
-    derivative (``y = w t``, ``T`` of ``drive_tail``; see ``tiny_hop``)."""
+    derivative (``y = w t``, ``T`` of ``drive_tail`` with K terms; see ``tiny_hop``)."""
     y = w * t
-    T, Tp = drive_tail(y, sn, cs)
+    T, Tp = drive_tail(y, sn, cs, K)
     y4 = y * y * y * y
     c2, c3, c4 = 0.5 * g2, g3 * (1.0 / 6.0), g4 * (1.0 / 24.0)
     P = G + t * (Gp + t * (c2 + t * (c3 + t * c4))) + A * y4 * y * T
@@ -120,12 +133,12 @@ def gap_series(t, G, Gp, g2, g3, g4, sn, cs, A, w):
 
 
 @njit(cache=True, fastmath=FMA, inline="always")
-def series_rate(t, Fp, F2, sn, cs, A, w):
+def series_rate(t, Fp, F2, sn, cs, A, w, K):
     """The rate ``F'`` (mm/s) ``t`` s after a point where it is ``Fp``, from its series:
     ``Fp + F_2 t + A w (-cos y^2 / 2 + sin y^3 / 6) + A w y^4 T'`` (``y = w t``, ``T'`` of
-    ``drive_tail``; the arc has no part in it)."""
+    ``drive_tail`` with K terms; the arc has no part in it)."""
     y = w * t
-    Tp = drive_tail(y, sn, cs)[1]
+    Tp = drive_tail(y, sn, cs, K)[1]
     y2 = y * y
     return Fp + F2 * t + A * w * y2 * (-0.5 * cs + y * (sn * (1.0 / 6.0)) + y2 * Tp)
 
@@ -141,7 +154,7 @@ def taylor_finish(tau, G, Gp, Fp, sn, cs, xi, S, vx, room, kp):
     ``gap_coefficients`` there (see ``tiny_hop``),
 
         G(tau + u) = G + Gp u + g_2 u^2/2 + g_3 u^3/6 + g_4 u^4/24
-                     + A sum_{n=5..16} s_n (w u)^n / n! + r(u).
+                     + A sum_{n=5..N} s_n (w u)^n / n! + r(u).
 
     Accepted only if, up to ``u_max`` (``w u_max < TAYLOR_MAX_SPAN``):
 
@@ -152,9 +165,9 @@ def taylor_finish(tau, G, Gp, Fp, sn, cs, xi, S, vx, room, kp):
       ``u_max = u0`` and ``G' <= G'_max = Gp``; elsewhere ``u_max = 2 u0`` and ``G' <= Gp +
       u_max (g_2 + K3 u_max) = G'_max <= Gp / 2``;
     * the remainder moves it by less than eps tau (the safe-step search stops at
-      ``ROOT_STEP_REL`` tau): the drive's remainder after degree 16 in the rate
-      (``drive_remainder``) is below eps ``|G'_max|`` (the root moves by less than eps
-      u_max / 17), the arc's is below eps ``|G'_max|`` tau / 2.
+      ``ROOT_STEP_REL`` tau): N = 4, 8 or 16 (``tail_terms``) puts the drive's remainder
+      in the rate below eps ``|G'_max|`` (the root moves by less than eps u_max / 5), the
+      arc's is below eps ``|G'_max|`` tau / 2.
 
     Newton from the root of ``G + Gp u + g_2 u^2 / 2`` where ``g_2 < 0`` (in ``(0, u0]``,
     ``u0 = G / |Gp|``, and closer to the contact: fewer Newton steps), else from ``u0``.
@@ -182,15 +195,13 @@ def taylor_finish(tau, G, Gp, Fp, sn, cs, xi, S, vx, room, kp):
         if not slope >= -0.5 * Gp:
             return fail
     x = w * u_max
-    if not (
-        drive_remainder(aw, x) <= EPS * slope
-        and arc_remainder(vx, u_max, kp) <= 0.5 * EPS * slope * tau
-    ):
+    K = tail_terms(aw, x, EPS * slope)
+    if not (K >= 0 and arc_remainder(vx, u_max, kp) <= 0.5 * EPS * slope * tau):
         return fail
     # the quadratic's root (no cancellation: Gp < 0), closer than u0 by O(g_3 u^3)
     t = 2.0 * G / (math.sqrt(Gp * Gp - 2.0 * g2 * G) - Gp) if g2 < 0.0 else u0
     for _ in range(TAYLOR_NEWTON_MAX):
-        P, dP = gap_series(t, G, Gp, g2, g3, g4, sn, cs, A, w)
+        P, dP = gap_series(t, G, Gp, g2, g3, g4, sn, cs, A, w, K)
         step = P / dP
         t -= step
         # the error Newton leaves, |P'' / 2 P'| step^2 with |P''| <= |g_2| + K3 t: negligible
@@ -202,4 +213,4 @@ def taylor_finish(tau, G, Gp, Fp, sn, cs, xi, S, vx, room, kp):
         return fail
     half = 0.5 * kp.d
     xi_c = min(max(xi + vx * t, -half), half)
-    return t, xi_c, series_rate(t, Fp, F2, sn, cs, A, w), True
+    return t, xi_c, series_rate(t, Fp, F2, sn, cs, A, w, K), True

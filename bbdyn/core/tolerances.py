@@ -74,7 +74,7 @@ WEDGE_MAX_REFLECTIONS = 16
 #: from its impact; ``taylor.taylor_finish``, the end of a descending flight): tried when
 #: the polynomial's span ``w u_max`` (rad; ``u_max`` the first guess or twice it) is below
 #: TAYLOR_MAX_SPAN and the drive's remainder after degree TAYLOR_DEGREE in the rate is
-#: below eps of it (``taylor.drive_tail`` sums the terms 5 to 16 by fixed Horner chains);
+#: below eps of it (``taylor.tail_terms`` picks degree 4, 8 or TAYLOR_DEGREE);
 #: Newton stops once the error its last step leaves is below TAYLOR_NEWTON_REL of the
 #: flight time, after at most TAYLOR_NEWTON_MAX steps.
 TAYLOR_MAX_SPAN = 0.5
