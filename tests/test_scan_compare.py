@@ -529,6 +529,12 @@ def test_the_taylor_finish_one_step_sooner():
     def bench_file(name: str) -> dict:
         return json.loads((ROOT / "docs" / "bench" / name).read_text())
 
+    # 32ab3f6 (drive_tail returns from each branch) computes bitwise what e2a9cae does
+    for name in ("flat_flights", "billiard_runs"):
+        check = bench_file(f"{name}_e2a9cae_32ab3f6.json")
+        assert check["trees"] == ["e2a9cae", "32ab3f6"]
+        flags = [r["bitwise_as_first"] for r in check["results"]]
+        assert all(f if isinstance(f, bool) else all(f) for f in flags)
     # the flat flight in a compiled loop
     timing = bench_file("flat_flights_4b5c1c6_e2a9cae.json")
     assert timing["trees"] == ["4b5c1c6", "e2a9cae"] and timing["rounds"] == 5
