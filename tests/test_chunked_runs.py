@@ -77,8 +77,13 @@ def test_keyboard_interrupt_between_chunks_stops_the_run():
 
 
 SCRIPT = """
+import signal
 import sys
 from bbdyn import Params
+
+# Ctrl-C as at a terminal: a process started in the background by a shell (a CI runner's
+# job) inherits SIGINT ignored, and Python then keeps it ignored
+signal.signal(signal.SIGINT, signal.default_int_handler)
 from bbdyn.ensemble import ensemble
 
 def told(done):
