@@ -264,7 +264,7 @@ class Carry(NamedTuple):
     Taken by ``core.ensemble.run_ensemble`` and ``run_features``.
 
     ``state`` (n, CARRY_WIDTH), columns ``C_*``; the fast-forward rings ``rel``
-    (n, FF_LAGS or 0, 6), ``rel_acc`` (n, ., 4), ``rel_cnt`` (int64, n, ., CNT_WIDTH)
+    (n, FF_LAGS or 0, 5), ``rel_acc`` (n, ., 4), ``rel_cnt`` (int64, n, ., CNT_WIDTH)
     (see ``core.ensemble.fast_forward``); the features' ring of the last collisions ``ring``
     (n, pmax or 0, 3) (see ``features.feature_collision``).  Everything a particle's
     loop needs to go on lives here, so a run cut into chunks makes the same
@@ -289,7 +289,7 @@ def new_carry(states, ff_lags, pmax):
     n = states.shape[0]
     carry = Carry(
         np.zeros((n, CARRY_WIDTH)),
-        np.zeros((n, ff_lags, 6)),
+        np.zeros((n, ff_lags, 5)),
         np.zeros((n, ff_lags, 4)),
         np.zeros((n, ff_lags, CNT_WIDTH), dtype=np.int64),
         np.zeros((n, pmax, 3)),

@@ -412,31 +412,119 @@ def converged_cycle(carry, i, n_rel, ev, acc, counts, kp):
     return 0
 
 
-@njit(cache=True, fastmath=FMA)
-def skip_cycles(carry, i, back, ev, zone, k, bound, window, split, kp, energy, out):
-    """Skip as many copies of the cycle since release ``back`` (ring index) as fit before
-    ``bound`` in ``zone`` (see ``fast_forward``); returns ``(K, dP, dl)``, ``K = 0`` if none
-    fits."""
-    rel_acc, rel_cnt = carry.rel_acc[i], carry.rel_cnt[i]
-    acc, counts = out.blocks[i], out.counts[i]
-    periods, phase, tile, xi = ev.periods, ev.phase, ev.tile, ev.xi
-    s = back % FF_LAGS
-    r = carry.rel[i, s]
-    if r[4] != zone or r[5] != k or rel_cnt[s, CNT_JUMPS] != counts[CNT_JUMPS]:
-        return 0, 0.0, 0.0
-    dP = periods - r[2]
-    dl = tile - r[3]
-    p0 = window.p0
-    p1 = p0 + window.nb * window.L
-    nxt_zone = p0 if zone == 0.0 else (p1 if zone == 1.0 else math.inf)
-    b_p, b_ph = bound
-    if is_before(nxt_zone, 0.0, b_p, b_ph):
-        b_p, b_ph = nxt_zone, 0.0
+@njit(cache=True, fastmath=FMA, inline="always")
+def cycles_before(periods, phase, dP, b_p, b_ph):
+    """Whole cycles of ``dP`` periods from ``(periods, phase)`` that end strictly before
+    ``(b_p, b_ph)`` (>= 0)."""
     K = int(min((b_p - periods) // dP, 2.0**52 / dP))
     while K > 0 and not is_before(periods + K * dP, phase, b_p, b_ph):
         K -= 1
+    return max(K, 0)
+
+
+@njit(cache=True, fastmath=FMA)
+def cycle_samples(carry, i, ev, trig, S, lag, n_cycle, dP, dl, K, k, times, kp, disp):
+    """Positions at the sample times ``k, k + 1, ...`` inside the ``K`` cycles skipped from
+    the release ``ev`` (see ``fast_forward``), into ``disp``; returns ``(k, ok)``, ``k`` the
+    first sample after them.
+
+    The cycle from ``ev`` is run once more, event by event from the loop's own state
+    (``trig = (sin, cos)`` of its phase, ``S`` its arc root), as the loop would run it; a
+    sample ``j`` cycles on is placed in it at its time less ``j dP`` periods, its tile ``j dl``
+    on.  Periods and tiles are whole numbers, so in the bitwise mode the positions are the
+    event-by-event run's bit for bit.  ``ok = False`` (nothing written) unless the cycle run
+    again makes ``n_cycle`` events and ends at the ``lag``-th release ``dP`` periods and ``dl``
+    tiles on, at the same phase.
+    """
+    tile0, xi0 = carry.state[i, C_TILE0], carry.state[i, C_XI0]
+    sample_periods, sample_phase = times.sample_periods, times.sample_phase
+    end_p = ev.periods + K * dP
+    k_end = k
+    while k_end < sample_periods.shape[0] and is_before(
+        sample_periods[k_end], sample_phase[k_end], end_p, ev.phase
+    ):
+        k_end += 1
+    if k_end == k:
+        return k, True
+    # the cycle from ev: each event's periods, phase, tile, xi, vx and whether it sticks
+    cycle = np.empty((n_cycle + 1, 6))
+    periods, phase, tile, xi, vx, vyrel, kind = ev
+    sn, cs = trig
+    releases = 0
+    for e in range(n_cycle):
+        cycle[e, 0], cycle[e, 1], cycle[e, 2], cycle[e, 3] = periods, phase, tile, xi
+        cycle[e, 4], cycle[e, 5] = vx, 1.0 if kind == STICK else 0.0
+        nxt = billiard_event_trig(periods, phase, sn, cs, S, tile, xi, vx, vyrel, kind, kp)
+        if nxt[7] != OK:
+            return k, False
+        periods, phase, tile, xi, vx, vyrel, kind = nxt[:7]
+        sn, cs, S = nxt[8], nxt[9], nxt[10]
+        releases += kind == RELEASE
+    same = kind == RELEASE and releases == lag and phase == ev.phase
+    if not (same and periods == ev.periods + dP and tile == ev.tile + dl):
+        return k, False
+    cycle[n_cycle, 0], cycle[n_cycle, 1] = periods, phase
+    j_last, e = -1, 0
+    for m in range(k, k_end):
+        # the copy j of the cycle holding the sample: a sample at an event's time belongs to
+        # the interval that event starts, as in the loop
+        j = cycles_before(ev.periods, ev.phase, dP, sample_periods[m], sample_phase[m])
+        if ev.periods + (j + 1) * dP == sample_periods[m] and ev.phase == sample_phase[m]:
+            j += 1
+        s_p = sample_periods[m] - j * dP  # the sample's time in the cycle from ev
+        if j != j_last:
+            j_last, e = j, 0
+        while is_before(cycle[e + 1, 0], cycle[e + 1, 1], s_p, sample_phase[m]) or (
+            cycle[e + 1, 0] == s_p and cycle[e + 1, 1] == sample_phase[m]
+        ):
+            e += 1
+        x = cycle[e, 3]
+        if cycle[e, 5] == 0.0:
+            x += cycle[e, 4] * time_between(
+                s_p, sample_phase[m], cycle[e, 0], cycle[e, 1], kp.w, kp.period
+            )
+        disp[m] = displacement(cycle[e, 2] + j * dl, x, tile0, xi0, kp.d)
+    return k_end, True
+
+
+@njit(cache=True, fastmath=FMA)
+def skip_cycles(carry, i, n_rel, lag, ev, trig, S, zone, k, times, window, split, kp, flags, out):
+    """Skip as many copies of the cycle of the last ``lag`` releases (of ``n_rel``) as fit
+    before the end in ``zone`` (see ``fast_forward``), the positions at the sample times
+    inside them from ``cycle_samples`` (or, where it fails, only those before the next sample
+    time); returns ``(K, dP, dl, k)``, ``K = 0`` if none fits, ``k`` the next sample.  The
+    cycle's releases in the ring move with the particle to the last skipped copy: periods,
+    tiles, integrals and counts by what the skip adds to them."""
+    rel, rel_acc, rel_cnt = carry.rel[i], carry.rel_acc[i], carry.rel_cnt[i]
+    acc, counts = out.blocks[i], out.counts[i]
+    energy = (flags & OBS_ENERGY) != 0
+    periods, phase, tile, xi = ev.periods, ev.phase, ev.tile, ev.xi
+    s = (n_rel - lag) % FF_LAGS
+    r = rel[s]
+    if r[4] != zone or rel_cnt[s, CNT_JUMPS] != counts[CNT_JUMPS]:
+        return 0, 0.0, 0.0, k
+    dP = periods - r[2]
+    dl = tile - r[3]
+    n_cycle = counts[CNT_EVENTS] - rel_cnt[s, CNT_EVENTS]
+    p0 = window.p0
+    p1 = p0 + window.nb * window.L
+    nxt_zone = p0 if zone == 0.0 else (p1 if zone == 1.0 else math.inf)
+    b_p, b_ph = times.end_periods, times.end_phase
+    if is_before(nxt_zone, 0.0, b_p, b_ph):
+        b_p, b_ph = nxt_zone, 0.0
+    K = cycles_before(periods, phase, dP, b_p, b_ph)
+    if K > 0 and (flags & OBS_DISPLACEMENT) != 0:
+        k_new, ok = cycle_samples(
+            carry, i, ev, trig, S, lag, n_cycle, dP, dl, K, k, times, kp, out.displacement[i]
+        )
+        if ok:
+            k = k_new
+        elif k < times.sample_periods.shape[0]:
+            s_p, s_ph = times.sample_periods[k], times.sample_phase[k]
+            if is_before(s_p, s_ph, b_p, b_ph):
+                K = cycles_before(periods, phase, dP, s_p, s_ph)
     if K < 1:
-        return 0, 0.0, 0.0
+        return 0, 0.0, 0.0, k
     if is_before(periods, phase, split, 0.0):
         # cycles ending before the split, and does the next skipped one pass it?
         K_split = int(min(K, (split - periods) // dP))
@@ -450,16 +538,25 @@ def skip_cycles(carry, i, back, ev, zone, k, bound, window, split, kp, energy, o
             )
             integrate_to_split(acc, release, p0, split, kp, energy)
     for c in range(4):
-        acc[0, c] += K * (acc[0, c] - rel_acc[s, c])
-    n_cycle = counts[CNT_EVENTS] - rel_cnt[s, CNT_EVENTS]
+        added = K * (acc[0, c] - rel_acc[s, c])
+        acc[0, c] += added
+        for j in range(1, lag + 1):
+            rel_acc[(n_rel - j) % FF_LAGS, c] += added
     for c in range(CNT_WIDTH):
-        counts[c] += K * (counts[c] - rel_cnt[s, c])  # CNT_SKIPPED: no skip in the cycle
-    counts[CNT_SKIPPED] += K * n_cycle
-    return K, dP, dl
+        added = K * (counts[c] - rel_cnt[s, c])  # CNT_SKIPPED: no skip in the cycle
+        if c == CNT_SKIPPED:
+            added += K * n_cycle
+        counts[c] += added
+        for j in range(1, lag + 1):
+            rel_cnt[(n_rel - j) % FF_LAGS, c] += added
+    for j in range(1, lag + 1):
+        rel[(n_rel - j) % FF_LAGS, 2] += K * dP
+        rel[(n_rel - j) % FF_LAGS, 3] += K * dl
+    return K, dP, dl, k
 
 
 @njit(cache=True, fastmath=FMA, inline="always")
-def fast_forward(carry, i, n_rel, ev, k, bound, window, split, kp, energy, converged, out):
+def fast_forward(carry, i, n_rel, ev, trig, S, k, times, window, split, kp, flags, out):
     """Skip whole stick-release cycles of particle ``i`` once its releases repeat.
 
     Exactness: a RELEASE leaves at ``phase = theta_r`` with ``vx = vyrel = 0`` relative to
@@ -468,27 +565,32 @@ def fast_forward(carry, i, n_rel, ev, k, bound, window, split, kp, energy, conve
     ``(phase, xi, vx, vyrel)``, translated in periods and tiles.  If this release equals,
     bit for bit, the one ``p`` releases back (``dP`` periods and ``dl`` tiles earlier),
     every later cycle repeats the last one exactly, shifted by ``(dP, dl)`` (the release
-    velocities are always 0, so ``(phase, xi)`` is compared).  With ``converged`` a cycle
+    velocities are always 0, so ``(phase, xi)`` is compared).  With ``OBS_FF_CONVERGED`` a cycle
     that has converged onto a fixed point within ``FF_DRIFT_TOL`` (``converged_cycle``, a
     proven bound on the drift ahead) is skipped the same way: the skipped releases are then
     this one's, within that bound of the event-by-event run's.  Its
     contributions are the changes of the accumulators over the last cycle, added ``K``
     times: counts exactly; integrals to rounding (a product instead of a running sum, see
     ``tolerances.SUM_ROUND_PER_TERM``).  Only cycles inside one zone are skipped: the last
-    cycle and the ``K`` skipped ones contain no window boundary, no sample time (``k``
-    unchanged, ``bound`` the next one) and no recorded jump (none was seen in a stick-release
-    cycle; a drifting cycle is simulated) and end before ``end``; around those the loop runs
-    normally.  The split of the energy window is no bound (the skips, and so the window's
-    integrals, are those of a run without it): if a skipped cycle passes it, row 1 of
-    ``blocks`` gets the whole cycles before it the same way and the cycle that passes it
-    from ``integrate_to_split``.
+    cycle and the ``K`` skipped ones contain no window boundary and no recorded jump (none
+    was seen in a stick-release cycle; a drifting cycle is simulated), and the skipped ones
+    end before the end; around those the loop runs normally.  The positions at the sample
+    times inside the skipped cycles come from the cycle run once more from this release
+    (``cycle_samples``: in the bitwise mode the event-by-event run's bit for bit); where that
+    fails, the skip ends before the next sample time.  After a skip the ring keeps the
+    cycle's releases, moved to its last skipped copy (``skip_cycles``), and this release,
+    moved the same way, so that the cycle is recognised again one cycle later (older releases
+    are forgotten: ``xi = inf`` matches no release).  The split of the energy window is no
+    bound (the skips, and so the window's integrals, are those of a run without it): if a
+    skipped cycle passes it, row 1 of ``blocks`` gets the whole cycles before it the same way
+    and the cycle that passes it from ``integrate_to_split``.
 
     Parameters
     ----------
     carry : bbdyn.ensemble.Carry
-        Row ``i`` of its rings (updated in place): ``rel`` (FF_LAGS, 6), the releases
-        ``phase, xi, periods, tile, zone, k`` (zone 0, 1, 2: before, in, after the window;
-        ``k`` the next sample index then); ``rel_acc`` (FF_LAGS, 4) and ``rel_cnt``
+        Row ``i`` of its rings (updated in place): ``rel`` (FF_LAGS, 5), the releases
+        ``phase, xi, periods, tile, zone`` (zone 0, 1, 2: before, in, after the window);
+        ``rel_acc`` (FF_LAGS, 4) and ``rel_cnt``
         (FF_LAGS, CNT_WIDTH), the particle's ``blocks[0, :4]`` and ``counts`` at those releases.
     i : int
         The particle.
@@ -496,24 +598,29 @@ def fast_forward(carry, i, n_rel, ev, k, bound, window, split, kp, energy, conve
         Releases pushed so far.
     ev : Event
         This release.
+    trig, S : (float, float), float
+        Sine and cosine of its phase and its arc root (mm), as the loop carries them.
     k : int
-        Next sample index; ``bound`` its time ``(periods, phase)`` or the end.
+        The next sample time's index.
+    times : RunTimes
+        The end and the sample times.
     window : Window
         The window (one block).
     split : float
         End of the first part of the window (whole periods, ``Observables.split_periods``).
     kp : KernelParams
-    energy : bool
-        Whether the energy integrals are computed (``OBS_ENERGY``).
-    converged : bool
-        Also skip converged cycles (``OBS_FF_CONVERGED``), not only bitwise repeats.
+    flags : int
+        ``Observables.flags``: energy integrals (``OBS_ENERGY``), positions
+        (``OBS_DISPLACEMENT``), and whether converged cycles are skipped as well as bitwise
+        repeats (``OBS_FF_CONVERGED``).
     out : EnsembleOut
-        Row ``i`` of ``blocks`` and ``counts`` is advanced by the skipped cycles.
+        Row ``i`` of ``blocks`` and ``counts`` is advanced by the skipped cycles, and its
+        ``displacement`` written at the sample times inside them.
 
     Returns
     -------
-    (K, dP, dl, n_rel) : whole cycles skipped (0: none), cycle length (periods), tile shift,
-    and the new ring count (reset to 0 after a skip).
+    (K, dP, dl, n_rel, k) : whole cycles skipped (0: none), cycle length (periods), tile
+    shift, the new ring count and the next sample index.
     """
     rel, rel_acc, rel_cnt = carry.rel[i], carry.rel_acc[i], carry.rel_cnt[i]
     acc, counts = out.blocks[i], out.counts[i]
@@ -525,26 +632,28 @@ def fast_forward(carry, i, n_rel, ev, k, bound, window, split, kp, energy, conve
         if rel[s, 1] == xi and rel[s, 0] == phase:
             lag = p
             break
-    if lag == 0 and converged and n_rel >= 2:
+    if lag == 0 and (flags & OBS_FF_CONVERGED) != 0 and n_rel >= 2:
         near = abs(rel[(n_rel - 1) % FF_LAGS, 1] - xi)
         for p in range(2, min(n_rel, FF_LAGS) // 2 + 1):
             near = min(near, abs(rel[(n_rel - p) % FF_LAGS, 1] - xi))
         if near <= FF_DRIFT_TOL:  # a candidate: the full test
             lag = converged_cycle(carry, i, n_rel, ev, acc, counts, kp)
+    K, dP, dl = 0, 0.0, 0.0
     if lag > 0:
-        K, dP, dl = skip_cycles(
-            carry, i, n_rel - lag, ev, zone, k, bound, window, split, kp, energy, out
+        K, dP, dl, k = skip_cycles(
+            carry, i, n_rel, lag, ev, trig, S, zone, k, times, window, split, kp, flags, out
         )
-        if K > 0:
-            return K, dP, dl, 0
+    if K > 0:
+        for p in range(lag + 1, min(n_rel, FF_LAGS) + 1):
+            rel[(n_rel - p) % FF_LAGS, 1] = math.inf  # forgotten: older than the cycle
     s = n_rel % FF_LAGS
-    rel[s, 0], rel[s, 1], rel[s, 2], rel[s, 3] = phase, xi, periods, tile
-    rel[s, 4], rel[s, 5] = zone, k
+    rel[s, 0], rel[s, 1], rel[s, 2], rel[s, 3] = phase, xi, periods + K * dP, tile + K * dl
+    rel[s, 4] = zone
     for c in range(4):
         rel_acc[s, c] = acc[0, c]
     for c in range(CNT_WIDTH):
         rel_cnt[s, c] = counts[c]
-    return 0, 0.0, 0.0, n_rel + 1
+    return K, dP, dl, n_rel + 1, k
 
 
 @njit(cache=True, fastmath=FMA)
@@ -621,7 +730,6 @@ def particle_loop(carry, i, budget, kp, times, out, obs, th):
     energy = (flags & OBS_ENERGY) != 0
     do_jumps = (flags & OBS_JUMPS) != 0
     do_ff = (flags & OBS_FAST_FORWARD) != 0 and not do_record
-    converged = (flags & OBS_FF_CONVERGED) != 0
     end_p, end_ph = times.end_periods, times.end_phase
     window = Window(times.p0, times.L, times.nb)
     p0, L, nb = window
@@ -681,12 +789,9 @@ def particle_loop(carry, i, budget, kp, times, out, obs, th):
         trig, S = (nxt[8], nxt[9]), nxt[10]
         if kind == RELEASE:
             if do_ff:
-                bound = (end_p, end_ph)
-                if k < n_samples and is_before(sample_periods[k], sample_phase[k], end_p, end_ph):
-                    bound = (sample_periods[k], sample_phase[k])
-                K, dP, dl, n_rel = fast_forward(
-                    carry, i, n_rel, Event(periods, phase, tile, xi, vx, vyrel, kind), k, bound,
-                    window, split, kp, energy, converged, out,
+                K, dP, dl, n_rel, k = fast_forward(
+                    carry, i, n_rel, Event(periods, phase, tile, xi, vx, vyrel, kind), trig, S,
+                    k, times, window, split, kp, flags, out,
                 )  # fmt: skip
                 periods += K * dP
                 tile += K * dl
