@@ -275,6 +275,10 @@ def assert_targets_out_of_reach(bench: dict, commit: str, flat: str) -> None:
     ) in flat
 
 
+#: D (mm^2/s) below which a scan point's D is zero to the rounding of its positions.
+D_ZERO = 1e-15
+
+
 def agreement_with_s3_full(m, commit: str, text: str) -> list[tuple[str, float, float]]:
     """The full scan at ``commit`` against docs/figures/S3_full, recomputed: the same numbers
     as its saved comparison and docs/benchmarks.md's table, energies equal to rounding
@@ -282,12 +286,18 @@ def agreement_with_s3_full(m, commit: str, text: str) -> list[tuple[str, float, 
     folder = ROOT / "docs" / "scan_compare"
     saved = json.loads((folder / f"full_scan_compare_{commit}.json").read_text())
     assert m.doc_table(saved) in text
-    again = m.z_scores(m.load_old(ROOT / "docs" / "figures" / "S3_full.npz"),
-                       m.load_new(folder / f"full_scan_{commit}.json"))  # fmt: skip
+    old = m.load_old(ROOT / "docs" / "figures" / "S3_full.npz")
+    new = m.load_new(folder / f"full_scan_{commit}.json")
+    again = m.z_scores(old, new)
     f = again["f"]
+    # D zero to the rounding of positions in both scans: every particle locked, z is noise
+    # about noise (docs/benchmarks.md, 2dcadef), not a measure of agreement
+    zero = [np.round(s["f"][np.abs(s["D"]) < D_ZERO], 9) for s in (old, new)]
+    locked = np.isin(np.round(f, 9), np.intersect1d(*zero))
     for name in ("D", "E", "E_x"):
         assert {k: v for k, v in again[name].items() if k != "z"} == saved[name]
-        assert np.abs(again[name]["z"][f < 57.0]).max() < (1.1 if name == "D" else 1e-4)
+        below = (f < 57.0) & ~locked if name == "D" else f < 57.0
+        assert np.abs(again[name]["z"][below]).max() < (1.1 if name == "D" else 1e-4)
     return [(name, x, z) for name in ("D", "E", "E_x")
             for x, z in zip(f, again[name]["z"], strict=True) if abs(z) > 3]  # fmt: skip
 
@@ -665,3 +675,106 @@ def test_the_taylor_finish_one_step_sooner():
             f"took {new_w['wall_s']:.0f} s against the 10 minutes, in an hour when the previous "
             f"kernel took {base_w['wall_s']:.0f} s") in flat  # fmt: skip
     assert new_w["wall_s"] < base_w["wall_s"]
+
+
+def test_sample_times_no_longer_end_the_skips():
+    """docs/benchmarks.md on 2dcadef: the scan's points in both trees, both full scans of the
+    same hour, how they differ, the scan against S3_full and the targets, every number from
+    the committed files."""
+    from bbdyn.scenes.b2_scan_cost import (
+        agreement_sentence,
+        measured_speedup_table,
+        measured_table,
+    )
+
+    m = load_benchmark("scan_compare")
+    text, flat, load = benchmarks_page()
+    # the scan's points at n = 100, interleaved
+    points = load("scan_points_38a14d2_2dcadef.json")
+    assert points["trees"] == ["38a14d2", "2dcadef"] and points["n"] == 100
+    assert load_benchmark("scan_points").table(points) in text
+    bands = {row["band"]: row["ratio"] for row in points["bands"]}
+    assert (f"The chattering-and-sticking bands gain most: {bands['53.2-57.4']:.2f} at "
+            f"53.2-57.4 Hz and {bands['57.6-65']:.2f} at 57.6-65 Hz") in flat  # fmt: skip
+    assert f"the bands are unchanged ({bands['65.2-80']:.2f}, {bands['80.2-95']:.2f})" in flat
+    cpu = {f: [rows[j]["cpu_s"] for rows in points["points"]]
+           for j, f in enumerate(p["f"] for p in points["points"][0])}  # fmt: skip
+    gain = {f: a / b for f, (a, b) in cpu.items()}
+    assert sorted(gain, key=gain.get)[-2:] == [79.0, 70.2]
+    assert (f"single points {gain[70.2]:.2f} (70.2 Hz), {gain[79.0]:.2f} (79 Hz) and "
+            f"{gain[63.0]:.2f} (63 Hz)") in flat  # fmt: skip
+    assert f"At 70.2 Hz a point cost {gain[70.2]:.1f} times what it costs now" in flat
+    # both full scans of the same hour; the old one is bitwise the scan at 8524432
+    scans = timed_scans(load, ("2dcadef", "38a14d2"), flat)
+    (new, new_w), (base, base_w) = scans["2dcadef"], scans["38a14d2"]
+    before = load("full_scan_8524432.json")
+    keys = ("D", "D_se", "E", "E_se", "E_x", "E_x_se", "events")
+    assert all(p[k] == q[k] for p, q in zip(base["points"], before["points"], strict=True)
+               for k in keys)  # fmt: skip
+    assert f"(which took {load('full_scan_8524432_wall.json')['wall_s']:.0f} s in its hour)" in flat
+    assert measured_table(new["points"]) in text
+    assert measured_speedup_table(base["points"], new["points"]) in text
+    assert (f"The scan gains {base['cpu_s'] / new['cpu_s']:.2f} in CPU time and "
+            f"{base_w['wall_s'] / new_w['wall_s']:.2f} in wall time") in flat  # fmt: skip
+    old_pts = {p["f"]: p for p in base["points"]}
+    new_pts = {p["f"]: p for p in new["points"]}
+    first = [f"{new_pts[f]['cpu_s']:.2f} s" for f in (49.8, 50.0)]
+    first += [f"{old_pts[f]['cpu_s']:.2f} s" for f in (49.8, 50.0)]
+    assert "({} and {} against {} and {})".format(*first) in flat
+    assert (f"({old_pts[52.6]['cpu_s']:.2f} s to {new_pts[52.6]['cpu_s']:.2f} s at 52.6 Hz)"
+            in flat)  # fmt: skip
+    # how the two scans differ
+    pairs = list(zip(base["points"], new["points"], strict=True))
+    assert all(p["events"] == q["events"] for p, q in pairs)
+    sentence = agreement_sentence(base["points"], new["points"])
+    same = int(sentence.split(" of ")[0])
+    assert f"{same} of {len(pairs)} points have the same D, E and E_x" in flat
+    for key, bound in (("E", 1e-12), ("E_x", 2e-12)):
+        rel = max(abs(p[key] - q[key]) / abs(p[key]) for p, q in pairs if p[key] != q[key])
+        assert rel <= 1.5 * bound
+    assert "E and E_x move by at most 1e-12 and 2e-12 of their values" in flat
+    moved = [(p, q) for p, q in pairs if p["D"] != q["D"]]
+    size = [max(abs(p["D"]), abs(q["D"])) for p, q in moved]
+    large = [abs(p["D"] - q["D"]) / s for (p, q), s in zip(moved, size, strict=True) if s > 1e-3]
+    middle = [(abs(p["D"] - q["D"]) / max(p["D_se"], q["D_se"]), s)
+              for (p, q), s in zip(moved, size, strict=True) if D_ZERO < s <= 1e-3]  # fmt: skip
+    tiny = [(p, q) for (p, q), s in zip(moved, size, strict=True) if s <= D_ZERO]
+    assert (f"D moves by at most {max(large):.0e} of its value at the {len(large)} points where "
+            f"it exceeds 1e-3 mm^2/s, and by at most {max(z for z, _ in middle):.1e} of its "
+            f"standard error at the {len(middle)} points where it lies between 1e-15 and "
+            f"{max(s for _, s in middle):.1e} mm^2/s") in flat  # fmt: skip
+    tiny_f = [p["f"] for p, _ in tiny]
+    assert tiny_f == [54.6, 55.0, 55.4, 56.0, 57.0]
+    top = max(max(abs(p["D"]), abs(q["D"])) for p, q in tiny)
+    noise = max(abs(p["D"] - q["D"]) / max(p["D_se"], q["D_se"]) for p, q in tiny)
+    assert all(p["trapped"] == 0 and p["stuck_fraction"] < 1 for p, _ in tiny)
+    assert (f"At {len(tiny)} points (54.6, 55, 55.4, 56 and 57 Hz) D is below {top:.1e} mm^2/s on "
+            f"both sides") in flat  # fmt: skip
+    assert f"moves by up to {noise:.1f} of its standard error" in flat
+    # against S3_full
+    beyond = agreement_with_s3_full(m, "2dcadef", text)
+    assert [(name, x) for name, x, _ in beyond] == [("E", 85.2), ("E_x", 78.2)]
+    assert (f"(E at 85.2 Hz, z = {beyond[0][2]:.2f}, and E_x at 78.2 Hz, z = "
+            f"{beyond[1][2]:.2f})") in flat  # fmt: skip
+    s3 = m.load_old(ROOT / "docs" / "figures" / "S3_full.npz")
+    z_old = m.z_scores(s3, m.load_new(ROOT / "docs" / "scan_compare" / "full_scan_38a14d2.json"))
+    z_new = m.z_scores(s3, m.load_new(ROOT / "docs" / "scan_compare" / "full_scan_2dcadef.json"))
+    change = np.abs(z_new["D"]["z"] - z_old["D"]["z"])
+    worst = [float(z_new["f"][i]) for i in np.argsort(-change)[:2]]
+    assert worst == [57.0, 54.6]
+    at = [int(np.argmin(np.abs(z_new["f"] - x))) for x in worst]
+    zn, zo = z_new["D"]["z"], z_old["D"]["z"]
+    assert (f"{zn[at[0]]:.2f} and {zn[at[1]]:.2f} against {zo[at[0]]:.2f} and {zo[at[1]]:.2f} "
+            "at 38a14d2") in flat  # fmt: skip
+    # the targets
+    assert new_w["wall_s"] < 600 < base_w["wall_s"] + 60
+    bench = json.loads((ROOT / "docs" / "bench" / "bench_trees_4b5c1c6_e2a9cae.json").read_text())
+    one, cont = bench["billiard"][:2]
+    default = bench["flat"][0]
+    speeds = [row["e2a9cae"]["speed"] for row in (one, cont, default)]
+    assert (
+        "one flight {:.3g} and a continuous run {:.3g} billiard collisions/s, above the "
+        "target of 8e6; the flat ball {:.3g} impacts/s, below 1e7".format(*speeds)
+    ) in flat
+    assert (f"The full scan took {new_w['wall_s']:.0f} s wall on the 2 cores, within the 10 "
+            f"minutes (38a14d2 took {base_w['wall_s']:.0f} s in the same hour") in flat  # fmt: skip
