@@ -44,21 +44,30 @@ def test_same_tree_twice_is_bitwise_the_same_and_a_patched_search_is_not(tmp_pat
     assert f"| {same['median_ns_per_flight']:.2f} | 1.0000 |" in table
 
 
-def test_every_committed_variant_applies_to_the_tree_it_was_measured_on(tmp_path):
-    """The variants of docs/bench/flat_variants/ are edits of the source at the commit of
-    their measurement (``flat_flights_e7de300.json``); later changes to the same lines need
-    not leave them applicable to today's tree."""
+@pytest.mark.parametrize(
+    ("folder", "report_name"),
+    [("flat_variants", "flat_flights_e7de300.json"),
+     ("flat_variants_e56e7ce", "flat_flights_e56e7ce_variants.json")],
+)  # fmt: skip
+def test_every_committed_variant_applies_to_the_tree_it_was_measured_on(
+    tmp_path, folder, report_name
+):
+    """The variants of a folder of docs/bench/ are edits of the source at the commit of their
+    measurement (the report's first tree), and the report timed each of them; later changes
+    to the same lines need not leave them applicable to today's tree."""
     import json
     import subprocess
 
-    report = json.loads((ROOT / "docs" / "bench" / "flat_flights_e7de300.json").read_text())
+    report = json.loads((ROOT / "docs" / "bench" / report_name).read_text())
+    variants = ROOT / "docs" / "bench" / folder
+    assert sorted(report["patches"]) == sorted(p.name for p in variants.glob("*.diff"))
     base = report["trees"][0]
     if subprocess.run(["git", "cat-file", "-e", f"{base}^{{commit}}"], cwd=ROOT).returncode:
         pytest.skip(f"commit {base} is not in this clone (a shallow checkout)")
     archive = subprocess.run(["git", "archive", base, "bbdyn"], cwd=ROOT, capture_output=True,
                              check=True).stdout  # fmt: skip
     subprocess.run(["tar", "-x", "-C", str(tmp_path)], input=archive, check=True)
-    for diff in sorted(VARIANTS.glob("*.diff")):
+    for diff in sorted(variants.glob("*.diff")):
         check = ["git", "apply", "--check", str(diff)]
         assert subprocess.run(check, cwd=tmp_path, capture_output=True).returncode == 0, diff.name
 
