@@ -879,6 +879,10 @@ def test_issue_12_from_start_to_end():
     assert wall["wall_s"] <= 600 and base_w["wall_s"] <= 600
     assert (f"The 10-minute goal is met, by {600 - wall['wall_s']:.1f} s in this hour and by "
             f"{600 - base_w['wall_s']:.0f} s in 2dcadef's") in flat  # fmt: skip
+    diffusion = " ".join((ROOT / "docs" / "diffusion.md").read_text().split())
+    times = (base_w["wall_s"], wall["wall_s"], base["cpu_s"], scan["cpu_s"])
+    assert ("{:.0f} s and {:.0f} s wall on the 2 cores, {:.0f} s and {:.0f} s of CPU "
+            "time".format(*times)) in diffusion  # fmt: skip
     start = load("full_scan_db5ef1b.json")["cpu_s"]
     assert (f"At db5ef1b the same scan took {start:.0f} s of CPU time, "
             f"{start / scan['cpu_s']:.2f} times as much") in flat  # fmt: skip
