@@ -72,6 +72,11 @@ def benchmarks_page():
     return text, " ".join(text.split()), lambda name: json.loads((folder / name).read_text())
 
 
+def bench_file(name: str) -> dict:
+    """A committed benchmark report of docs/bench by name."""
+    return json.loads((ROOT / "docs" / "bench" / name).read_text())
+
+
 def timed_scans(load, commits, flat: str) -> dict:
     """``{commit: (scan, wall)}``, the committed full scans and their wall times; checks that
     docs/benchmarks.md (``flat``) states each one's wall and CPU time."""
@@ -184,7 +189,7 @@ def test_the_scan_with_newton_from_the_quadratic_root():
     assert load_benchmark("kernel_buffers").doc_table(kernel) in text
     ratios = [r["ratio"] for r in kernel["results"]]
     assert f"hide the {100 * (min(ratios) - 1):.0f}-{100 * (max(ratios) - 1):.0f} % of" in flat
-    bench = json.loads((ROOT / "docs" / "bench" / "bench_trees_356ac1d_2813441.json").read_text())
+    bench = bench_file("bench_trees_356ac1d_2813441.json")
     trees = load_benchmark("bench_trees")
     for target in ("flat", "billiard"):
         assert trees.doc_table(bench, target) in text
@@ -237,7 +242,7 @@ def test_the_scan_with_one_evaluation_fewer_above_the_floor():
     assert load_benchmark("kernel_buffers").doc_table(kernel) in text
     ratios = {r["f"]: r["ratio"] for r in kernel["results"]}
     assert ratios[90.0] > ratios[50.2]  # "the gain grows with the frequency"
-    bench = json.loads((ROOT / "docs" / "bench" / "bench_trees_187c778_cc2e660.json").read_text())
+    bench = bench_file("bench_trees_187c778_cc2e660.json")
     trees = load_benchmark("bench_trees")
     for target in ("flat", "billiard"):
         assert trees.doc_table(bench, target) in text
@@ -331,7 +336,7 @@ def test_the_scan_with_the_event_search_inlined():
     assert load_benchmark("kernel_buffers").doc_table(kernel) in text
     ratios = {r["f"]: r["ratio"] for r in kernel["results"]}
     assert max(ratios, key=ratios.get) <= 60.0 and min(ratios, key=ratios.get) == 90.0
-    bench = json.loads((ROOT / "docs" / "bench" / "bench_trees_8ff7342_92c6887.json").read_text())
+    bench = bench_file("bench_trees_8ff7342_92c6887.json")
     trees = load_benchmark("bench_trees")
     for target in ("flat", "billiard"):
         assert trees.doc_table(bench, target) in text
@@ -344,7 +349,7 @@ def test_the_scan_with_the_event_search_inlined():
         f"the target of 8e6. The flat ball reaches {flat_s:.3g} impacts/s against "
         f"1e7, and a continuous billiard run {run_s:.3g} collisions/s"
     ) in flat
-    last = json.loads((ROOT / "docs" / "bench" / "bench_trees_187c778_cc2e660.json").read_text())
+    last = bench_file("bench_trees_187c778_cc2e660.json")
     assert (f"in this run 8ff7342 made {bench_speeds(bench, '8ff7342')[1]:.3g} collisions/s in one "
             f"flight, where cc2e660, the same kernel, made "
             f"{last['billiard'][0]['cc2e660']['speed']:.3g}") in flat  # fmt: skip
@@ -390,7 +395,7 @@ def test_the_scan_with_a_square_root_fewer_per_falling_step():
     ratios = [row["ratio"] for row in kernel["results"]]
     assert f"The kernel gains {min(ratios):.2f}-{max(ratios):.2f} at every frequency" in flat
     assert min(ratios) > 1.0
-    bench = json.loads((ROOT / "docs" / "bench" / "bench_trees_92c6887_67c51b6.json").read_text())
+    bench = bench_file("bench_trees_92c6887_67c51b6.json")
     trees = load_benchmark("bench_trees")
     for target in ("flat", "billiard"):
         assert trees.doc_table(bench, target) in text
@@ -415,13 +420,13 @@ def test_the_scan_with_a_square_root_fewer_per_falling_step():
         f"{run_s:.3g} collisions/s against 8e6 for a continuous billiard run "
         f"(one flight: {one_s:.3g})"
     ) in flat
-    last = json.loads((ROOT / "docs" / "bench" / "bench_trees_8ff7342_92c6887.json").read_text())
+    last = bench_file("bench_trees_8ff7342_92c6887.json")
     assert (
         f"The same 92c6887 made {bench_speeds(bench, '92c6887')[0]:.3g} impacts/s here against "
         f"{last['flat'][0]['92c6887']['speed']:.3g} in the run of the last section"
     ) in flat
     # the Lyapunov exponents before and after, in combined standard errors
-    lyap = json.loads((ROOT / "docs" / "bench" / "lyapunov_0e2c1d6_67c51b6.json").read_text())
+    lyap = bench_file("lyapunov_0e2c1d6_67c51b6.json")
     assert lyap["trees"] == ["0e2c1d6", "67c51b6"]
     z = {}
     for g in lyap["groups"]:
@@ -535,9 +540,6 @@ def test_the_taylor_finish_one_step_sooner():
 
     m = load_benchmark("scan_compare")
     text, flat, load = benchmarks_page()
-
-    def bench_file(name: str) -> dict:
-        return json.loads((ROOT / "docs" / "bench" / name).read_text())
 
     # 32ab3f6 (drive_tail returns from each branch) computes bitwise what e2a9cae does
     for name in ("flat_flights", "billiard_runs"):
@@ -741,7 +743,7 @@ def test_sample_times_no_longer_end_the_skips():
     tiny = [(p, q) for (p, q), s in zip(moved, size, strict=True) if s <= D_ZERO]
     assert (f"D moves by at most {max(large):.0e} of its value at the {len(large)} points where "
             f"it exceeds 1e-3 mm^2/s, and by at most {max(z for z, _ in middle):.1e} of its "
-            f"standard error at the {len(middle)} points where it lies between 1e-15 and "
+            f"standard error at the {len(middle)} points where it lies between {D_ZERO:.0e} and "
             f"{max(s for _, s in middle):.1e} mm^2/s") in flat  # fmt: skip
     tiny_f = [p["f"] for p, _ in tiny]
     assert tiny_f == [54.6, 55.0, 55.4, 56.0, 57.0]
@@ -768,7 +770,7 @@ def test_sample_times_no_longer_end_the_skips():
             "at 38a14d2") in flat  # fmt: skip
     # the targets
     assert new_w["wall_s"] < 600 < base_w["wall_s"] + 60
-    bench = json.loads((ROOT / "docs" / "bench" / "bench_trees_4b5c1c6_e2a9cae.json").read_text())
+    bench = bench_file("bench_trees_4b5c1c6_e2a9cae.json")
     one, cont = bench["billiard"][:2]
     default = bench["flat"][0]
     speeds = [row["e2a9cae"]["speed"] for row in (one, cont, default)]
@@ -787,9 +789,6 @@ def test_issue_12_from_start_to_end():
     from bbdyn.scenes.b2_scan_cost import band_sums, predicted_vs_measured_table
 
     text, flat, load = benchmarks_page()
-
-    def bench_file(name: str) -> dict:
-        return json.loads((ROOT / "docs" / "bench" / name).read_text())
 
     # bbdyn bench before and after
     bench = bench_file("bench_trees_db5ef1b_e56e7ce.json")
