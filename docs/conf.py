@@ -40,6 +40,7 @@ extensions = [
     "sphinx.ext.autosummary",
     "numpydoc",
     "gallery",
+    "datavalue",
 ]
 
 # Only pages are sources: not the build, the figure data, the scripts or the checkpoints.

@@ -1,0 +1,55 @@
+"""The ``{data}`` references of the pages and notebooks resolve to committed data.
+
+Pages type no computed number: they write ``{data}`FILE.json:KEY|FMT``` and the site's
+extension ``docs/_ext/datavalue.py`` inserts the value at build time. This test reads every
+reference without building the site, so a page whose data file or key is gone fails here.
+"""
+
+from __future__ import annotations
+
+import json
+import sys
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT / "docs" / "_ext"))
+import datavalue  # noqa: E402
+
+
+def _texts():
+    for page in sorted((ROOT / "docs").glob("*.md")):
+        yield page.relative_to(ROOT).as_posix(), page.read_text()
+    for notebook in sorted((ROOT / "notebooks").glob("*.ipynb")):
+        cells = json.loads(notebook.read_text())["cells"]
+        text = "\n".join("".join(c["source"]) for c in cells if c["cell_type"] == "markdown")
+        yield notebook.relative_to(ROOT).as_posix(), text
+
+
+REFERENCES = [(name, ref) for name, text in _texts() for ref in datavalue.IN_TEXT.findall(text)]
+
+
+@pytest.mark.parametrize(("page", "reference"), REFERENCES or [("none", None)])
+def test_reference_resolves(page, reference):
+    if reference is None:
+        pytest.skip("no page uses a data reference")
+    assert datavalue.resolve(reference)
+
+
+def test_a_broken_reference_is_an_error(tmp_path):
+    with pytest.raises(KeyError, match="no key 'nothing'"):
+        datavalue.resolve("figures/S3_full.json:meta/nothing")
+    with pytest.raises(KeyError, match="no data file"):
+        datavalue.resolve("figures/none.json:x")
+    with pytest.raises(ValueError, match="FILE.json:KEY"):
+        datavalue.resolve("no colon here")
+
+
+def test_values_are_formatted_as_asked():
+    assert datavalue.format_value({"value": 1.23456, "se": 0.0456}, ".2f") == "1.23 ± 0.05"
+    assert datavalue.format_value(0.000123456, None) == "0.000123"
+    assert datavalue.format_value(227, None) == "227"
+    assert datavalue.format_value([1.0, 2.5], ".1f") == "1.0, 2.5"
+    frequencies = datavalue.resolve("figures/S3_full.json:meta/settings/f_step")
+    assert frequencies == "0.2"
