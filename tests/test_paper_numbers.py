@@ -210,6 +210,10 @@ def test_the_verdicts_rest_on_the_data():
     o88 = P["orbit_88"]
     assert o88["major_regions"] == 6 and o88["full"] > 0 and o88["skip5"] > 0
     assert o88["alternating_pairs"] < 0.75 * o88["pairs"] and o88["regime"] != "b(ii)"
+    # docs/classification.md: 85.2 Hz intermittent (d), 88.4 Hz not locked ("other")
+    c85, c88 = P["classified_85_88"]["85.2"], P["classified_85_88"]["88.4"]
+    assert c85["regime"] == "d" and 0.05 <= c85["locked_fraction"] < 0.9
+    assert c88["regime"] == "other" and c88["locked_fraction"] < 0.9 and c88["dominant_k"] == 2
     # P19: the largest D in the 3/1 tongue; sticky where D is near zero
     assert lo3 <= P["D_max"]["f"] <= hi3
     assert r["stuck_still"] > 5 * r["stuck_moving"]
@@ -240,3 +244,33 @@ def test_green_kubo_zeroth_order_is_the_random_walk():
     d = Params(f=85.0).d
     assert np.allclose(s10["D_n"][:, 0], d**2 / (2 * s10["tau"]), rtol=1e-3)
     assert np.all(s10["p_f"] + s10["p_b"] == pytest.approx(1.0))
+
+
+CREEP = json.loads((DOCS / "data" / "creep.json").read_text())
+
+
+def test_creep_to_the_wedges_data():
+    """docs/diffusion.md: just above Gamma = 1 no particle jumps, yet particles move, most of
+    them towards a wedge, and more sit on a wedge at the end; the windowed D grows at 51 Hz;
+    at 53 Hz every particle has arrived by 100 s and hardly anything moves at the end."""
+    for f in ("51", "53"):
+        c = CREEP[f]
+        assert c["jumps_per_particle_per_s"] == 0
+        assert c["closer_20_100"] <= c["moved_20_100"] <= c["n"]
+        assert c["closer_20_100"] > c["moved_20_100"] / 2
+        assert c["on_wedge_100"] > c["on_wedge_20"]
+    windows = [w["value"] for w in CREEP["51"]["D_windows"]]
+    assert windows == sorted(windows) and windows[-1] > 1.2 * windows[0]
+    c53 = CREEP["53"]
+    assert c53["on_wedge_100"] == c53["n"] and c53["moved_80_100_max"] < CREEP["on_wedge_mm"]
+    assert c53["moved_80_100"] < CREEP["51"]["moved_80_100"]
+
+
+@pytest.mark.slow
+def test_creep_numbers_reproduce():
+    """docs/data/creep_numbers.py (two small ensembles) gives the committed creep.json."""
+    spec = importlib.util.spec_from_file_location("creep", DOCS / "data" / "creep_numbers.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    for f in module.FREQUENCIES:
+        assert close(json.loads(json.dumps(module.creep(f))), CREEP[f"{f:g}"])

@@ -40,27 +40,17 @@ ROOT = DOCS.parent
 OUT = DOCS / "data" / "paper.json"
 FIGURES = ("S1", "S2", "S3_full", "S8", "S9_full", "S10_full", "B1_full")
 D_TABLE = DOCS / "data" / "classification_d_table.json"
-#: Small fresh runs: (file under docs/data, bbdyn command line). The 2/1 resonance from
-#: initial conditions above the reference box (vy+ in (40, 400] mm/s).
+#: Small fresh runs: {file under docs/data: [bbdyn command lines]}. The 2/1 resonance from
+#: initial conditions above the reference box (vy+ in (40, 400] mm/s), and 85.2 and 88.4 Hz
+#: from the reference box (docs/classification.md, "Uncertain cases").
 FRESH = {
     "classify_74_high.json": [
-        [
-            "classify",
-            "--f",
-            f,
-            "--box",
-            "high",
-            "--n",
-            "200",
-            "--t",
-            "50",
-            "--seed",
-            "0",
-            "--threads",
-            "1",
-            "--json",
-        ]
+        f"classify --f {f} --box high --n 200 --t 50 --seed 0 --threads 1 --json".split()
         for f in ("74.0", "74.5")
+    ],
+    "classify_85_88.json": [
+        f"classify --f {f} --n 1000 --t 50 --seed 0 --threads 1 --json".split()
+        for f in ("85.2", "88.4")
     ],
 }
 #: The paper's numbers (section in the comment), to compute differences only.
@@ -408,6 +398,27 @@ def resonance_74(b1: dict, tongue_2: list[float]) -> dict:
     return out
 
 
+def classified_85_88() -> dict:
+    """docs/classification.md: the one attractor at 85.2 and 88.4 Hz (fresh runs): its
+    regime, share of flights locked near the dominant k (``k_tol``) and of tiny hops."""
+    runs_ = json.loads((DOCS / "data" / "classify_85_88.json").read_text())["runs"]
+    out = {}
+    for run in runs_:
+        s = run["result"]
+        (a,) = s["attractors"]
+        out[f"{s['f']:g}"] = {
+            "regime": s["regime"],
+            "character": a["character"],
+            "dominant_k": a["dominant_k"],
+            "locked_fraction": a["locked_fraction"],
+            "tiny_fraction": a["tiny_fraction"],
+            "k_tol": s["thresholds"]["k_tol"],
+            "n": s["n"],
+            "t": s["t"],
+        }
+    return out
+
+
 def orbit_88(s8: dict, s8_meta: dict, s3: dict, b1: dict) -> dict:
     """P18: rounds of the six regions at 88.4 Hz; period 11 would alternate full and skip."""
     imp = (s8["kind"] == 0) & np.isfinite(s8["flight"])
@@ -569,7 +580,7 @@ def provenance() -> dict:
             "json_sha256": sha256(DOCS / "figures" / f"{name}.json"),
             "made_at_commit": meta["provenance"]["commit"],
         }
-    for path in (D_TABLE, DOCS / "data" / "classify_74_high.json"):
+    for path in [D_TABLE] + [DOCS / "data" / name for name in FRESH]:
         inputs[path.relative_to(DOCS).as_posix()] = {"sha256": sha256(path)}
     return {
         "command": "python docs/data/paper_numbers.py",
@@ -597,6 +608,7 @@ def build() -> dict:
             "t": s3_meta["settings"]["t"],
             "points": int(s3["f"].size),
             "D_not_converged": runs(s3["f"], s3["D_converged"] == 0),
+            "D_not_converged_below_54": runs(s3["f"], (s3["D_converged"] == 0) & (s3["f"] < 54)),
             "energy_not_stationary": runs(s3["f"], s3["energy_stationary"] == 0),
             "cpu_s": s3_meta["scan_cpu_s"],
         },
@@ -610,6 +622,7 @@ def build() -> dict:
         "attractors_58_62": locked_58(table),
         "resonance_74": resonance_74(b1, setup_["tongues"][1]),
         "orbit_88": orbit_88(s8, s8_meta, s3, b1),
+        "classified_85_88": classified_85_88(),
         "random_walk": random_walk(s9, s3, setup_),
         "green_kubo": green_kubo(s10),
         "results_70": results_70(s3, b1),
