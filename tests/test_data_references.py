@@ -59,3 +59,26 @@ def test_values_are_formatted_as_asked():
     assert datavalue.format_value([1.0, 2.5], ".1f") == "1.0, 2.5"
     frequencies = datavalue.resolve("figures/S3_full.json:meta/settings/f_step")
     assert frequencies == "0.2"
+
+
+def test_the_role_inserts_the_value_in_a_built_page(tmp_path):
+    """A page built by Sphinx (Python as its default domain, as on the site) shows the value,
+    not the reference: the Python domain's own "data" role must not take it."""
+    from sphinx.application import Sphinx
+
+    src = tmp_path / "src"
+    src.mkdir()
+    (src / "conf.py").write_text(
+        f"import sys\nsys.path.insert(0, {str(ROOT / 'docs' / '_ext')!r})\n"
+        'extensions = ["myst_parser", "datavalue"]\n'
+    )
+    (src / "index.md").write_text(
+        "# t\n\nstep {data}`figures/S3_full.json:meta/settings/f_step|.2f` Hz\n\n"
+        "| a |\n|---|\n| {data}`figures/S3_full.json:meta/settings/f_step\\|.3f` |\n"
+    )
+    app = Sphinx(src, src, tmp_path / "out", tmp_path / "doctrees", "html", status=None,
+                 warningiserror=True)  # fmt: skip
+    app.build()
+    html = (tmp_path / "out" / "index.html").read_text()
+    assert "step 0.20 Hz" in html and "<td><p>0.200</p></td>" in html
+    assert "S3_full.json" not in html

@@ -87,4 +87,8 @@ def data_role(name, rawtext, text, lineno, inliner, options=None, content=None):
 
 def setup(app):
     app.add_role("data", data_role)
+    # Sphinx looks a role up in the default domain first, and the Python domain has its own
+    # "data" role (cross-references to module data): it would take every {data} reference and
+    # render it as an unresolved literal, silently. The pages use no Python :data: role.
+    app.add_role_to_domain("py", "data", data_role, override=True)
     return {"parallel_read_safe": True, "parallel_write_safe": True}
