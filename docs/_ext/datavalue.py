@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import json
 import re
-from functools import lru_cache
+from functools import cache
 from pathlib import Path
 
 from docutils import nodes
@@ -29,7 +29,7 @@ REFERENCE = re.compile(r"^(?P<file>[^:|]+\.json):(?P<key>[^|]+)(?:\|(?P<fmt>.*))
 IN_TEXT = re.compile(r"\{data\}`([^`]+)`")
 
 
-@lru_cache(maxsize=None)
+@cache
 def _load(file: str) -> object:
     path = DOCS / file
     if not path.is_file():
