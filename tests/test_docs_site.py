@@ -129,17 +129,22 @@ def _mathjax_sources(page: Path) -> list[str]:
 
 
 def test_equations_render_offline(site):
-    """The model page and the notebooks typeset their equations with a MathJax served by the
-    site itself: every page that loads MathJax loads a file of the build, with no host."""
+    """Pages with equations (the model page, the notebooks with LaTeX) typeset them with a
+    MathJax served by the site itself: every page that shows math or loads MathJax loads a
+    file of the build, with no host."""
     model = (site / "model.html").read_text(encoding="utf-8")
     assert model.count('class="math') >= 20, "docs/model.md shows too few equations"
-    pages = [site / "model.html", *sorted((site / "notebooks").glob("*.html"))]
-    for page in pages:
+    with_math = []
+    for page in sorted(site.rglob("*.html")):
         sources = _mathjax_sources(page)
-        assert sources, f"{page.name} loads no MathJax"
+        if 'class="math' in page.read_text(encoding="utf-8"):
+            with_math.append(page.relative_to(site).as_posix())
+            assert sources, f"{page.name} shows math but loads no MathJax"
         for src in sources:
             assert "://" not in src and not src.startswith("//"), f"{page.name}: {src}"
             assert (page.parent / src.split("?")[0]).is_file(), f"{page.name}: {src} missing"
+    assert "model.html" in with_math
+    assert any(name.startswith("notebooks/") for name in with_math), with_math
 
 
 def test_mathjax_is_a_file_of_the_site_by_configuration(tmp_path):
