@@ -128,7 +128,9 @@ class Thresholds:
         within this of k periods (one collision per k periods on average, as for a
         period-doubled k/1 orbit whose single flights differ from k) (0.005).
     creep_min : float
-        An attractor creeps when this fraction of its collisions are tiny hops (0.5).
+        An attractor creeps when this fraction of its collisions are tiny hops (0.5); one
+        that also makes no jumps (``trapped_jumps``) is a trapped cycle instead: it
+        chatters, sticks and is released in the same trap, D = 0.
     intermittent_min : float
         Intermittent when both locked flights and tiny hops make at least this
         fraction of the collisions (0.05) without either reaching its own threshold.
@@ -472,7 +474,9 @@ def _group(pp, idx, th):
 
 
 def _character(att, th):
-    """How an attractor moves: 'at rest', 'locked', 'creeping', 'intermittent' or 'irregular'."""
+    """How an attractor moves: 'at rest', 'locked', 'trapped cycle' (tiny hops, sticks and
+    releases without jumps), 'creeping' (runs of tiny hops between jumps), 'intermittent' or
+    'irregular'."""
     if att["collision_rate"] == 0.0:
         return "at rest"
     k = round(att["flight_mean"])
@@ -482,7 +486,7 @@ def _character(att, th):
     ):
         return "locked"
     if att["tiny_fraction"] >= th.creep_min:
-        return "creeping"
+        return "trapped cycle" if att["trapped"] else "creeping"
     if min(att["locked_fraction"], att["tiny_fraction"]) >= th.intermittent_min:
         return "intermittent"
     return "irregular"

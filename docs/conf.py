@@ -41,6 +41,9 @@ extensions = [
     "numpydoc",
     "gallery",
     "datavalue",
+    # MathJax 3 copied into the site's _static and loaded from there (``mathjax_path``):
+    # equations, on the pages and in the notebooks, render with no network.
+    "sphinx-mathjax-offline",
 ]
 
 # Only pages are sources: not the build, the figure data, the scripts or the checkpoints.

@@ -281,7 +281,7 @@ def test_cli_json_equals_the_api(capsys):
 
 
 def test_locked_attractor_at_58_hz_has_the_top_orbits_exponent(capsys):
-    """At 58 Hz the classifier finds a creeping and a 1/1-locked attractor.  On the locked
+    """At 58 Hz the classifier finds a trapped cycle and a 1/1-locked attractor.  On the locked
     one every flight lasts one period and lands nearly vertically; the arcs' curvature is
     the same everywhere, so its exponent is that of the closed-form top orbit, log(mu) / T
     (derivations/billiard_orbit_jacobian.py), to within the tilt of the flights."""

@@ -90,10 +90,10 @@ def test_with_the_floor_the_labels_do_not_depend_on_the_take_over():
     assert f"c at {', '.join(f'{f:g}' for f in tree_c[:-1])} and {tree_c[-1]:g} Hz" in page
 
 
-def test_both_kernels_tend_to_one_creep_energy():
-    """56.8 Hz (every particle on one creep cycle): E_x on each kernel moves half as much per
-    factor 4 of the budget, both extrapolate to one value, and route 3's default is over ten
-    times farther from it than the tree's."""
+def test_both_kernels_tend_to_one_trapped_cycle_energy():
+    """56.8 Hz (every particle on one trapped stick-release cycle): E_x on each kernel moves
+    half as much per factor 4 of the budget, both extrapolate to one value, and route 3's
+    default is over ten times farther from it than the tree's."""
     m = _module()
     report = _report()
     (other,) = {r["tree"].split(",")[0] for r in report["simulate"]} - {"as is"} - {

@@ -133,10 +133,13 @@ def test_classify_command_json(capsys):
 
 
 # ---- constructed features: known attractors, known D --------------------------------------
-def _constructed(times, disp, unsettled=(), nb=16, L=10.0):
+def _constructed(times, disp, unsettled=(), nb=16, L=10.0, counts=None):
     """Features of ``disp.shape[0]`` trajectories that all agree on every compared average,
     except ``unsettled`` ones, whose collision rate triples from the first to the second half
-    of the window (so they fail the settling test).  Window ``[t / 2, t]``."""
+    of the window (so they fail the settling test).  Window ``[t / 2, t]``.  Every block of
+    ``L`` periods holds 10 collisions, all locked flights, and 2 jumps, unless ``counts``
+    (``{BF_* column: per-block value}``, a value of shape (n, 1) per trajectory) says
+    otherwise."""
     params = Params(f=50.0)
     n = disp.shape[0]
     block_s = L / params.f
@@ -146,6 +149,8 @@ def _constructed(times, disp, unsettled=(), nb=16, L=10.0):
     blocks[..., core.BF_COLL] = 10.0
     blocks[..., core.BF_LOCKED] = 10.0
     blocks[..., core.BF_JUMPS] = 2.0
+    for col, value in (counts or {}).items():
+        blocks[..., col] = value
     blocks[list(unsettled), nb // 2 :, core.BF_COLL] = 30.0
     th = Thresholds()
     arrays = {
@@ -278,3 +283,101 @@ def test_classify_command_hop_floor(capsys):
     assert b["collision_rate"] > a["collision_rate"] and b["tiny_fraction"] > a["tiny_fraction"]
     for key in ("D", "E", "E_x", "stuck_fraction"):  # the same trajectories
         assert a[key] == b[key]
+
+
+# ---- every regime label and attractor character ---------------------------------------------
+#: Block sums (per block of 10 driving periods at 50 Hz, ``_constructed``) of the motions
+#: that docs/model.md section 5 defines; stuck time in s.
+BLOCK_S = 10.0 / 50.0
+REST = {core.BF_COLL: 0.0, core.BF_LOCKED: 0.0, core.BF_JUMPS: 0.0, core.BF_STUCK: BLOCK_S}
+#: every period: chatter (5 tiny hops), stick, release, one flight; never a trap change
+TRAPPED_CYCLE = {core.BF_COLL: 60.0, core.BF_TINY: 50.0, core.BF_LOCKED: 0.0,
+                 core.BF_JUMPS: 0.0, core.BF_STUCK: 0.3 * BLOCK_S}  # fmt: skip
+#: one flight per period, locked to the drive, kicked into a neighbouring trap now and then
+LOCKED = {core.BF_COLL: 10.0, core.BF_LOCKED: 10.0, core.BF_JUMPS: 2.0}
+#: mostly tiny hops (long creeps), with jumps
+CREEP = {core.BF_COLL: 60.0, core.BF_TINY: 50.0, core.BF_LOCKED: 5.0, core.BF_JUMPS: 2.0}
+#: resonant flights and creeps alternate, neither dominating
+INTERMITTENT = {core.BF_COLL: 20.0, core.BF_TINY: 6.0, core.BF_LOCKED: 10.0, core.BF_JUMPS: 2.0}
+#: flights of no particular length, no tiny hops
+IRREGULAR = {core.BF_COLL: 10.0, core.BF_TINY: 0.0, core.BF_LOCKED: 0.0, core.BF_JUMPS: 2.0}
+
+
+def _two_motions(first, second, n):
+    """Counts of the first motion for trajectories [0, n/2), of the second for the rest."""
+    half = (np.arange(n) < n // 2)[:, None]
+    return {col: np.where(half, first.get(col, 0.0), second.get(col, 0.0))
+            for col in set(first) | set(second)}  # fmt: skip
+
+
+@pytest.mark.parametrize(
+    ("motion", "characters", "regime"),
+    [
+        (REST, ["at rest"], "a"),
+        (TRAPPED_CYCLE, ["trapped cycle"], "a"),
+        (LOCKED, ["locked"], "b(ii)"),
+        (CREEP, ["creeping"], "c"),
+        (INTERMITTENT, ["intermittent"], "d"),
+        (IRREGULAR, ["irregular"], "other"),
+        ("locked and trapped cycle", ["locked", "trapped cycle"], "b(i)"),
+        ("locked and creeping", ["locked", "creeping"], "b(i)"),
+    ],
+    ids=["a-at-rest", "a-trapped-cycle", "b(ii)-locked", "c-creeping", "d-intermittent",
+         "other-irregular", "b(i)-locked-and-trapped", "b(i)-locked-and-creeping"],
+)  # fmt: skip
+def test_every_regime_label_from_its_definition(motion, characters, regime):
+    """Each regime of docs/model.md section 5 (and each attractor character) from block
+    features built by its definition: no trap change -> (a); two coexisting attractors ->
+    (b)(i); one locked -> (b)(ii); one of creeps -> (c); one where locked flights and creeps
+    alternate -> (d); one irregular -> other.  Two motions go in equal halves."""
+    n = 20
+    times, disp = _persistent_walk(n=n, steps=200, p=0.5, d=1.0, tau=0.1, seed=3)
+    if isinstance(motion, str):
+        motion = _two_motions(LOCKED, TRAPPED_CYCLE if "trapped" in motion else CREEP, n)
+    s = classify_features(_constructed(times, disp, counts=motion)).summary
+    assert sorted(a["character"] for a in s["attractors"]) == sorted(characters), s["reason"]
+    assert s["regime"] == regime, s["reason"]
+    assert all(math.isclose(a["fraction"], 1 / len(characters)) for a in s["attractors"])
+
+
+def test_inside_the_1_1_tongue_the_billiard_is_phase_locked_and_diffuses():
+    """58 Hz is inside the flat 1/1 tongue (closed form); started near the 1/1 orbit over a
+    bump top, the billiard's particles stay locked (every flight one period), while the
+    curvature of the top, unstable for the horizontal motion (its exponent is positive in
+    closed form), kicks them from trap to trap: one locked attractor that jumps, (b)(ii)."""
+    from bbdyn.lyapunov import top_orbit_exponent
+
+    params = Params(f=58.0)
+    assert tongue_gamma_lo(1, params.alpha) < params.gamma < tongue_gamma_hi(1, params.alpha)
+    assert top_orbit_exponent(params, 1) > 0
+    ini, phase = _near_k1_orbit(params, n=12)
+    ini[:, 1] = 0.1 * np.random.default_rng(4).standard_normal(12)  # vx (mm/s)
+    s = classify(params, t=4.0, initial=ini, start_phase=phase, threads=1).summary
+    assert s["regime"] == "b(ii)", s["reason"]
+    (att,) = s["attractors"]
+    assert att["character"] == "locked" and att["locking_k"] == 1
+    assert att["jump_rate"] > 0 and not att["trapped"]
+
+
+@pytest.mark.parametrize("min_members", [3, 9], ids=["one-attractor", "no-attractor"])
+def test_classify_plot_has_no_empty_panel(min_members):
+    """``bbdyn classify --plot``: every panel of the figure shows data, with one attractor
+    (overview and its two phase-space panels) and with none (the overview alone)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from bbdyn.commands.classify import attractor_figure
+
+    params = Params(f=58.0, R=FLAT_R)
+    ini, phase = _near_k1_orbit(params, n=8)
+    feat = trajectory_features(params, t=2.0, initial=ini, start_phase=phase)
+    res = classify_features(feat, Thresholds(min_members=min_members))
+    fig = attractor_figure(res)
+    n_att = res.summary["n_attractors"]
+    assert n_att == (1 if min_members == 3 else 0)
+    assert len(fig.axes) == 1 + 2 * n_att
+    empty = [ax.get_title() for ax in fig.axes if not ax.has_data()]
+    plt.close(fig)
+    assert not empty, empty

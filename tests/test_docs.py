@@ -107,7 +107,7 @@ def test_tongue_frequencies_equal_closed_form():
 
 
 def test_gamma_two_frequency():
-    stated = re.search(r"Gamma > 2 \(f > ([0-9.]+) Hz", MODEL_TEXT)
+    stated = re.search(r"\\Gamma > 2\$ \(\$f\$ > ([0-9.]+) Hz", MODEL_TEXT)
     assert round(frequency_at_gamma(2.0), 2) == float(stated.group(1))
 
 
@@ -141,10 +141,10 @@ def test_wedge_and_high_bounce_numbers():
     from bbdyn.highbounce import tongue_errors
 
     text = section(MODEL_TEXT, "2. Bouncing ball billiard")
-    tol = re.search(r"within (\d+) eps d", text).group(1)
+    tol = re.search(r"within \$(\d+) \\varepsilon d\$", text).group(1)
     assert WEDGE_TOL == int(tol) * EPS
     assert int(re.search(r"After (\d+) reflections", text).group(1)) == WEDGE_MAX_REFLECTIONS
-    error = re.search(r"too low \(by ([0-9.]+) % in Gamma for k = 1", MODEL_TEXT).group(1)
+    error = re.search(r"too low \(by ([0-9.]+) % in \$\\Gamma\$ for \$k = 1\$", MODEL_TEXT).group(1)
     assert round(-100 * tongue_errors(1, 0.5)["gamma_hi"], 1) == float(error)
 
 

@@ -120,3 +120,42 @@ def test_api_page_documents_the_members(site):
     for name in ensemble.__all__:
         first_line = getattr(ensemble, name).__doc__.strip().splitlines()[0]
         assert first_line.split("``")[0].strip() in page, name
+
+
+def _mathjax_sources(page: Path) -> list[str]:
+    """The ``src`` of every script of an HTML page that loads MathJax."""
+    scripts = re.findall(r'<script [^>]*src="([^"]+)"', page.read_text(encoding="utf-8"))
+    return [src for src in scripts if "mathjax" in src.lower()]
+
+
+def test_equations_render_offline(site):
+    """Pages with equations (the model page, the notebooks with LaTeX) typeset them with a
+    MathJax served by the site itself: every page that shows math or loads MathJax loads a
+    file of the build, with no host."""
+    model = (site / "model.html").read_text(encoding="utf-8")
+    assert model.count('class="math') >= 20, "docs/model.md shows too few equations"
+    with_math = []
+    for page in sorted(site.rglob("*.html")):
+        sources = _mathjax_sources(page)
+        if 'class="math' in page.read_text(encoding="utf-8"):
+            with_math.append(page.relative_to(site).as_posix())
+            assert sources, f"{page.name} shows math but loads no MathJax"
+        for src in sources:
+            assert "://" not in src and not src.startswith("//"), f"{page.name}: {src}"
+            assert (page.parent / src.split("?")[0]).is_file(), f"{page.name}: {src} missing"
+    assert "model.html" in with_math
+    assert any(name.startswith("notebooks/") for name in with_math), with_math
+
+
+def test_mathjax_is_a_file_of_the_site_by_configuration(tmp_path):
+    """Without building: the configuration (docs/conf.py and its extensions) points MathJax
+    to a path inside the site, and the file there is one that the configuration ships."""
+    from sphinx.application import Sphinx
+
+    app = Sphinx(str(DOCS), str(DOCS), str(tmp_path), str(tmp_path / "doctrees"), "html",
+                 status=None, warning=None, freshenv=True)  # fmt: skip
+    path = app.config.mathjax_path
+    assert "://" not in path and not path.startswith("//"), path
+    shipped = [DOCS / d for d in app.config.html_static_path]
+    shipped += [Path(ext.module.__file__).parent / "static" for ext in app.extensions.values()]
+    assert any((d / path).is_file() for d in shipped), (path, shipped)

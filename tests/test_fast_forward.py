@@ -167,8 +167,8 @@ def test_converged_cycles_agree_with_the_event_by_event_run():
         assert np.all(np.abs(on[name] - off[name]) <= rel * off[name]), name
 
 
-def test_converged_mode_refuses_a_creeping_cycle():
-    # at 50 Hz the releases creep along the arc by ~1e-6 mm per period (a multiplier close
+def test_converged_mode_refuses_a_drifting_trapped_cycle():
+    # at 50 Hz the releases drift along the arc by ~1e-6 mm per period (a multiplier close
     # to 1): nothing has converged, so the converged mode skips exactly what bitwise skips
     kwargs = {"n": 4, "t": 30.0, "transient": 6.0}
     conv, _ = _pair(50.0, mode="converged", **kwargs)

@@ -354,7 +354,7 @@ def test_numbers_in_the_docs_page_come_from_the_code():
 @pytest.mark.slow
 def test_longer_billiard_runs_in_the_docs_page_come_from_the_code():
     """The convergence table of docs/lyapunov.md (n = 100, t = 50 s, transient 5 s; ~1 min)
-    and its sentence: every exponent but the 58 Hz creeping one agrees with the short runs
+    and its sentence: every exponent but the 58 Hz trapped cycle agrees with the short runs
     within two combined standard errors; that one does not."""
     from pathlib import Path
 
@@ -370,4 +370,4 @@ def test_longer_billiard_runs_in_the_docs_page_come_from_the_code():
         z = abs(g["lam1_per_s"] - s["lam1_per_s"]) / math.hypot(
             g["lam1_per_s_se"], s["lam1_per_s_se"]
         )
-        assert (z > 2) == (f == 58.0 and "creeping" in name), (f, name, z)
+        assert (z > 2) == (f == 58.0 and "trapped cycle" in name), (f, name, z)

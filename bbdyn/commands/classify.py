@@ -124,10 +124,21 @@ def classify_summary(args):
 
 
 def plot_attractors(res, path) -> None:
-    """Per attractor: (s, vx+) and (y, vy+) at collisions of its representative (S6/S7/S8 style)."""
+    """Save ``attractor_figure(res)`` as the PNG ``path``."""
     import matplotlib
 
     matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig = attractor_figure(res)
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+
+
+def attractor_figure(res):
+    """The classification's overview (``Classification.plot``) in the left column and, per
+    attractor, (s, vx+) and (y, vy+) at collisions of its representative (S6/S7/S8 style);
+    without attractors only the overview.  Returns the Figure."""
     import matplotlib.pyplot as plt
     import numpy as np
 
@@ -136,9 +147,11 @@ def plot_attractors(res, path) -> None:
 
     params = Params(**res.meta["params"])
     atts = res.summary["attractors"]
-    fig, axes = plt.subplots(max(len(atts), 1), 3, figsize=(12, 3.2 * max(len(atts), 1)))
-    axes = np.atleast_2d(axes)
-    res.plot(ax=axes[0, 0])
+    # the overview spans the left column; each attractor fills a row of the two others
+    rows, cols = max(len(atts), 1), 3 if atts else 1
+    fig = plt.figure(figsize=(4.0 * cols, 3.2 * rows), layout="constrained")
+    grid = fig.add_gridspec(rows, cols)
+    res.plot(ax=fig.add_subplot(grid[:, 0]))
     t = res.summary["t"]
     for a, att in enumerate(atts):
         run = ensemble(
@@ -151,13 +164,12 @@ def plot_attractors(res, path) -> None:
         b = np.sqrt(params.R**2 - xi**2) - np.sqrt(params.R**2 - params.d**2 / 4)
         u = -params.A * params.w * np.cos(rec[:, 1])
         y = -params.A * np.sin(rec[:, 1]) + b
-        axes[a, 1].plot(s, rec[:, 4], ".", ms=1)
-        axes[a, 1].set(xlabel="s (mm)", ylabel="vx+ (mm/s)", title=f"attractor {a}: (s, vx+)")
-        axes[a, 2].plot(y, rec[:, 5] + u, ".", ms=1)
-        axes[a, 2].set(xlabel="y (mm)", ylabel="vy+ (mm/s)", title=f"{att['character']}: (y, vy+)")
-    fig.tight_layout()
-    fig.savefig(path, dpi=120)
-    plt.close(fig)
+        ax_s, ax_y = fig.add_subplot(grid[a, 1]), fig.add_subplot(grid[a, 2])
+        ax_s.plot(s, rec[:, 4], ".", ms=1)
+        ax_s.set(xlabel="s (mm)", ylabel="vx+ (mm/s)", title=f"attractor {a}: (s, vx+)")
+        ax_y.plot(y, rec[:, 5] + u, ".", ms=1)
+        ax_y.set(xlabel="y (mm)", ylabel="vy+ (mm/s)", title=f"{att['character']}: (y, vy+)")
+    return fig
 
 
 def run(args) -> int:

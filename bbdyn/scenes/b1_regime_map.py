@@ -13,7 +13,7 @@ import numpy as np
 
 from bbdyn.results import Result, make_meta
 
-TITLE = "Regime map: regime, attractors and basin fractions against f (classifier, issue 6)"
+TITLE = "Regime map: regime, attractors and basin fractions against f"
 #: Regime labels in the order of the stored codes.
 LABELS = ("a", "b(i)", "b(ii)", "c", "d", "other")
 #: Basin fractions stored per point (largest first); more attractors are summed in the last.

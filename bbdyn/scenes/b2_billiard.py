@@ -1,4 +1,4 @@
-"""Work-precision benchmark of the billiard (scene B2, docs/model.md §6, issue 3 item 9).
+"""Work-precision benchmark of the billiard (scene B2, docs/model.md §6).
 
 Speed: collisions per second of the exact kernel (``bbdyn.core.billiard``), single
 thread, median over repeats after compilation: one flight at a time from a set of

@@ -1,4 +1,4 @@
-"""Work-precision benchmark of the flat ball (scene B2, docs/model.md §6, issue 2 item 8).
+"""Work-precision benchmark of the flat ball (scene B2, docs/model.md §6).
 
 Three ways to find the next impact are compared against the mpmath reference
 ``bbdyn.reference.flat_mpmath.reference_impacts``:

@@ -1,4 +1,4 @@
-"""Cost model of the full S3-S5 frequency scan (issue 12): `bbdyn bench scan-cost`.
+"""Cost model of the full S3-S5 frequency scan: `bbdyn bench scan-cost`.
 
 Model.  A scan point at frequency f with ``n`` particles and ``t`` simulated seconds
 costs ``n t c(f)`` CPU seconds, with ``c(f)`` the CPU time (s) per particle-second of a

@@ -47,8 +47,10 @@ FULL = {
     "f_start": 49.8, "f_stop": 95.0, "n_f": 227, "n": 50, "t": 50.0, "transient": 5.0,
     "billiard_n_f": 227, "billiard_n": 50, "billiard_t": 50.0, "billiard_transient": 5.0,
 }  # fmt: skip
-#: Characters of an attractor (``bbdyn.classify``), in the order of the stored codes.
-CHARACTERS = ("at rest", "locked", "creeping", "intermittent", "irregular")
+#: Characters of an attractor (``bbdyn.classify``), in the order of the stored codes (a new
+#: character goes at the end, so that saved codes keep their meaning; results saved before
+#: "trapped cycle" existed call trapped stick-release cycles "creeping").
+CHARACTERS = ("at rest", "locked", "creeping", "intermittent", "irregular", "trapped cycle")
 #: Attractors stored per frequency (more are dropped, the smallest basins first).
 MAX_ATTRACTORS = 4
 
@@ -175,7 +177,7 @@ def draw_billiard(result: Result, ax) -> None:
                    label=f"regime {lab}" if lab not in seen else None)  # fmt: skip
         seen.add(lab)
     markers = {"at rest": "s", "locked": "D", "creeping": "v", "intermittent": "o",
-               "irregular": "^"}  # fmt: skip
+               "irregular": "^", "trapped cycle": "<"}  # fmt: skip
     f = result["b_f"]
     for code, name in enumerate(CHARACTERS):
         sel = result["att_character"] == code

@@ -1,4 +1,4 @@
-"""Scene B6: fine structure of D(f) on nested frequency grids (issue 14; docs/fine_structure.md).
+"""Scene B6: fine structure of D(f) on nested frequency grids (docs/fine_structure.md).
 
 Around each centre frequency, D(f) (``bbdyn.scans.frequency.diffusion_point``, error
 bars one standard error over particles) on levels of decreasing step (a window of
@@ -46,6 +46,10 @@ FULL = {"centres": (58.0, 70.0, 85.2, 89.0), "steps": _STEPS, "points": 21, "n":
 SCHEDULER_VARIABLE = "BBDYN_SCHEDULER"
 #: bootstrap resamples per point (the bootstrap is only a cross-check of D_err)
 N_BOOT = 200
+#: Level panels side by side in the figure of ``draw``.
+LEVEL_COLUMNS = 2
+#: Marker of each centre in the scaling plot (cycled).
+CENTRE_MARKERS = ("o", "s", "D", "^", "v", "P")
 
 
 class FineStructureResult(Result):
@@ -229,22 +233,26 @@ def cost_estimate(result: Result, settings: dict) -> dict[str, float]:
 
 
 def draw(result: Result, ax=None):
-    """The nested grids (one row per centre, one panel per level) with error bars and the
-    scaling plot (S2 against step, log-log); with ``ax``, only the scaling plot there.
-    Returns the Figure."""
+    """The nested grids (per centre, one panel per level, two panels a row) with error bars and,
+    below them, the scaling plot (S2 against step, log-log); with ``ax``, only the scaling plot
+    there.  A level's colour is the same in its panel and in the scaling plot.  Returns the
+    Figure."""
     if ax is not None:
         _draw_scaling(result, ax)
         return ax.figure
     import matplotlib.pyplot as plt
 
     n_c, n_l = result["centres"].size, result["steps"].size
-    fig = plt.figure(figsize=(3.0 * n_l + 4.0, 2.6 * n_c + 0.6), layout="constrained")
-    grid = fig.add_gridspec(n_c, n_l + 1, width_ratios=[1] * n_l + [1.6])
+    rows_per_centre = -(-n_l // LEVEL_COLUMNS)
+    n_rows = n_c * rows_per_centre
+    fig = plt.figure(figsize=(10.0, 2.6 * n_rows + 4.2), layout="constrained")
+    grid = fig.add_gridspec(n_rows + 1, LEVEL_COLUMNS, height_ratios=[1] * n_rows + [1.5])
     for c in range(n_c):
         for lv in range(n_l):
-            _draw_level(result, c, lv, fig.add_subplot(grid[c, lv]))
-    _draw_scaling(result, fig.add_subplot(grid[:, n_l]))
-    fig.suptitle(f"B6: D(f) on nested grids, n = {result.meta['n']}, t = {result.meta['t']:g} s, "
+            row, col = divmod(lv, LEVEL_COLUMNS)
+            _draw_level(result, c, lv, fig.add_subplot(grid[c * rows_per_centre + row, col]))
+    _draw_scaling(result, fig.add_subplot(grid[n_rows, :]))
+    fig.suptitle(f"D(f) on nested grids, n = {result.meta['n']}, t = {result.meta['t']:g} s, "
                  "bars: 1 standard error")  # fmt: skip
     return fig
 
@@ -253,26 +261,43 @@ def _draw_level(result: Result, c: int, lv: int, ax) -> None:
     sel = (result["centre"] == c) & (result["level"] == lv)
     centre, step = result["centres"][c], result["steps"][lv]
     ax.errorbar(result["f"][sel] - centre, result["D"][sel], result["D_err"][sel], fmt="o-",
-                ms=2.5, lw=0.8, capsize=1.5, color=f"C{lv}")  # fmt: skip
-    ax.set_title(f"{centre:g} Hz, step {step:g} Hz: p = {result['p'][c, lv]:.2g}", fontsize=8)
-    ax.set_xlabel(f"f - {centre:g} (Hz)", fontsize=8)
-    ax.tick_params(labelsize=7)
-    if lv == 0:
-        ax.set_ylabel(r"$D$ (mm$^2$/s)", fontsize=8)
+                ms=3, lw=0.8, capsize=1.5, color=f"C{lv}")  # fmt: skip
+    p = result["p"][c, lv]
+    p_text = "p < 1e-300" if p == 0 else f"p = {p:.2g}"  # a p-value below the smallest double
+    ax.set_title(f"{centre:g} Hz, step {step:g} Hz: {p_text}", fontsize=10)
+    ax.set_xlabel(f"f - {centre:g} (Hz)")
+    ax.locator_params(axis="x", nbins=5)
+    ax.set_ylabel(r"$D$ (mm$^2$/s)")
 
 
 def _draw_scaling(result: Result, ax) -> None:
+    """S2 per level (the level's colour), one marker per centre; open markers are upper
+    bounds where S2 is not resolved.  The legend shows each centre's marker."""
+    from matplotlib.lines import Line2D
+    from matplotlib.ticker import NullLocator
+
     steps = result["steps"]
+    handles, unresolved = [], False
     for c, centre in enumerate(result["centres"]):
+        marker = CENTRE_MARKERS[c % len(CENTRE_MARKERS)]
         s2, err = result["S2"][c], result["S2_err"][c]
-        ok = s2 > fs.Z_RESOLVED * err
+        for lv, step in enumerate(steps):
+            if s2[lv] > fs.Z_RESOLVED * err[lv]:
+                ax.errorbar(step, s2[lv], err[lv], fmt=marker, ms=7, capsize=2, color=f"C{lv}")
+            else:
+                unresolved = True
+                bound = max(s2[lv] + fs.Z_RESOLVED * err[lv], 0.0)
+                ax.plot(step, bound, marker, ms=7, color=f"C{lv}", mfc="none")
         label = f"{centre:g} Hz"
         if math.isfinite(result["H"][c]):
-            label += f": H = {result['H'][c]:.2f} +- {result['H_err'][c]:.2f}"
-        (line,) = ax.loglog(steps[ok], s2[ok], "o", label=label)
-        bound = np.maximum(s2 + fs.Z_RESOLVED * err, 0)[~ok]
-        ax.loglog(steps[~ok], bound, "v", color=line.get_color(), mfc="none")
-    ax.set(xlabel="grid step (Hz)", ylabel=r"$S_2$ (mm$^4$/s$^2$)")
-    ax.set_title(f"noise-corrected mean squared increment\n(open: {fs.Z_RESOLVED:g} sigma upper "
-                 "bound, not resolved)", fontsize=8)  # fmt: skip
-    ax.legend(fontsize=7)
+            label += f": H = {result['H'][c]:.2f} ± {result['H_err'][c]:.2f}"
+        handles.append(Line2D([], [], ls="none", marker=marker, color="0.3", ms=7, label=label))
+    if unresolved:
+        handles.append(Line2D([], [], ls="none", marker="o", color="0.3", mfc="none", ms=7,
+                              label=f"not resolved: S2 + {fs.Z_RESOLVED:g} SE (upper bound)"))
+    ax.set(xscale="log", yscale="log", xlabel="grid step (Hz)", ylabel=r"$S_2$ (mm$^4$/s$^2$)")
+    ax.set_xticks(steps, [f"{s:g}" for s in steps])
+    ax.xaxis.set_minor_locator(NullLocator())
+    ax.set_title("noise-corrected mean squared increment of D between neighbouring grid points "
+                 "(colour: the level, as in its panel)", fontsize=10)
+    ax.legend(handles=handles)
