@@ -1,6 +1,6 @@
 """What a chattering sum accepted earlier could save at most: run times with an oracle sum.
 
-Route 3 of issue 12 would accept the closed-form chattering sum (``chatter_sum`` in
+A faster scan could accept the closed-form chattering sum (``chatter_sum`` in
 ``bbdyn/core/billiard.py``) at a larger normal velocity than today's error bound allows, so
 that the bounces before each stick need not be computed one by one.  This benchmark bounds
 its gain from above: for each velocity V (mm/s) a copy of the source tree is patched so that

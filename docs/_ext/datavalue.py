@@ -18,7 +18,7 @@ from __future__ import annotations
 
 import json
 import re
-from functools import lru_cache
+from functools import cache
 from pathlib import Path
 
 from docutils import nodes
@@ -30,7 +30,7 @@ REFERENCE = re.compile(r"^(?P<file>[^:|]+\.json):(?P<key>[^|]+)(?:\|(?P<fmt>.*))
 IN_TEXT = re.compile(r"\{data\}`([^`]+)`")
 
 
-@lru_cache(maxsize=None)
+@cache
 def _load(file: str) -> object:
     path = DOCS / file
     if not path.is_file():
@@ -89,4 +89,7 @@ def data_role(name, rawtext, text, lineno, inliner, options=None, content=None):
 
 def setup(app):
     app.add_role("data", data_role)
+    # a role without a domain is looked up in the default (Python) domain first, whose
+    # ``data`` cross-reference would otherwise take ``{data}`` and print the reference
+    app.add_role_to_domain("py", "data", data_role, override=True)
     return {"parallel_read_safe": True, "parallel_write_safe": True}
