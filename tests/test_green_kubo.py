@@ -239,34 +239,3 @@ def test_unknown_word_is_refused():
     res = green_kubo(persistent_walk(0.5, 5, 2.0, np.random.default_rng(0)), 2, n_boot=10)
     with pytest.raises(ValueError, match="word must be"):
         res.p("fx")
-
-
-def test_worked_example_data_is_the_pages_code_and_agrees_with_the_walk():
-    """docs/data/green_kubo_example.json (the numbers of docs/green_kubo.md's worked example)
-    is what the page's code computes now, and it agrees with the persistent walk's closed
-    forms: D_0 exact, each D_n within 3 bootstrap errors of D_0 (1 + 2 (q + ... + q^n)), the
-    Einstein D within 3 errors of D_inf, the symbol probabilities within 4 errors of the
-    Markov values, and the symbol combinations near q and q²."""
-    import importlib.util
-    import json
-
-    from derivation_loader import ROOT
-
-    path = ROOT / "docs" / "data" / "green_kubo_example.py"
-    spec = importlib.util.spec_from_file_location("green_kubo_example", path)
-    example = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(example)
-    stored = json.loads(path.with_suffix(".json").read_text())
-    assert stored == json.loads(json.dumps(example.run())), "run docs/data/green_kubo_example.py"
-    q, d0 = stored["q"], stored["D_0"]
-    assert d0 == stored["d"] ** 2 / (2 * stored["tau"])
-    for row in stored["rows"]:
-        n, value = row["n"], row["D_n"]
-        assert row["exact"] == pytest.approx(d0 * (1 + 2 * sum(q**k for k in range(1, n + 1))))
-        assert abs(value["value"] - row["exact"]) <= 3 * value["se"] + 1e-12 * d0
-    einstein = stored["D_einstein"]
-    assert abs(einstein["value"] - stored["D_inf"]) <= 3 * einstein["se"]
-    for word in stored["words"]:
-        assert abs(word["p"]["value"] - word["markov"]) <= 4 * word["p"]["se"]
-    assert stored["q_from_symbols"] == pytest.approx(q, abs=0.01)
-    assert stored["q2_from_symbols"] == pytest.approx(q * q, abs=0.01)
