@@ -1,6 +1,6 @@
 """What a chattering sum accepted earlier could save at most: run times with an oracle sum.
 
-Route 3 of issue 12 would accept the closed-form chattering sum (``chatter_sum`` in
+A faster scan could accept the closed-form chattering sum (``chatter_sum`` in
 ``bbdyn/core/billiard.py``) at a larger normal velocity than today's error bound allows, so
 that the bounces before each stick need not be computed one by one.  This benchmark bounds
 its gain from above: for each velocity V (mm/s) a copy of the source tree is patched so that
@@ -18,7 +18,7 @@ ends take the nearest sample), they predict the scan's CPU time per band for eac
 Usage::
 
     python benchmarks/chatter_oracle.py [--tree .] [--v 1e-4 1e-3 1e-2] [--f 50.2 55 ...]
-        [--n 16] [--t 200] [--repeats 3] [--scan docs/scan_compare/full_scan_323a012.json]
+        [--n 16] [--t 200] [--repeats 3] [--scan docs/scan_compare/full_scan.json]
         [--json]
 """
 
@@ -162,7 +162,7 @@ def add_common_arguments(parser: argparse.ArgumentParser) -> None:
     """``--tree``, ``--repeats``, ``--scan`` and ``--json`` (shared with chatter_takeover.py)."""
     parser.add_argument("--tree", default=".", help="source tree (default: .)")
     parser.add_argument("--repeats", type=int, default=3, help="timed runs per tree and f")
-    scan = "docs/scan_compare/full_scan_323a012.json"
+    scan = "docs/scan_compare/full_scan.json"
     parser.add_argument("--scan", default=scan, help="a full scan's JSON (its points)")
     parser.add_argument("--json", default=None, help="save the report here")
 

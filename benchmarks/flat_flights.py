@@ -12,7 +12,7 @@ the first tree; the ratio of the medians (each tree / the first).
 
 ``--patch DIFF`` adds a tree: a copy of the first tree's ``bbdyn/`` with the unified diff
 ``DIFF`` applied (``git apply``; paths ``a/bbdyn/...``), named ``FIRST+STEM``.  A variant is
-then one committed file (``docs/bench/flat_variants/``) instead of a source tree.
+then one diff file instead of a source tree.
 
 Usage::
 

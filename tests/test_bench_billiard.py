@@ -153,69 +153,55 @@ def test_bench_billiard_cli_json(tmp_path, capsys):
     assert (tmp_path / "b.png").exists() and (tmp_path / "b.json").exists()
 
 
-def test_the_docs_numbers_are_those_of_the_committed_run():
-    """docs/benchmarks.md shows the table of docs/bench/billiard_7c21b69.json and states its
-    numbers in the findings below it, and those of the previous run (bd1e3d6) it cites."""
-    from committed_runs import bench_runs
+def _committed_billiard() -> dict:
+    """``meta`` of the committed run of ``bbdyn bench billiard`` (docs/bench/bench_billiard)."""
+    from derivation_loader import ROOT
 
-    result, before, raw = bench_runs("billiard_7c21b69", "billiard_bd1e3d6")
-    assert bench.table(result) in raw
-    text = " ".join(raw.split())
-    rows, prof = result.meta["rows"], result.meta["profile"]
-    exact = [r for r in rows if r["method"] == "exact"]
-    fixed = {r["setting"]: r for r in rows if r["method"] == "fixed_step"}
-    paper = fixed["dt=0.0001 s, dt_min=1e-06 s"]
-    cps = [p["collisions_per_s"] / 1e6 for p in prof]
-    steps = [p["steps_per_flight"] for p in prof]
-    by_f = {p["f"]: p for p in prof}
-    ensemble = next(r for r in exact if "ensemble" in r["setting"])
-    err = max(r["max_time_error_s"] for r in exact if np.isfinite(r["max_time_error_s"]))
-    obs = result.meta["observables"]
-    ref, fs = obs[0], obs[1:]
-    expected = [
-        f"max {err:.1e} s",
-        f"{min(cps):.1f}e6 to {max(cps):.1f}e6 collisions/s per core",
-        f"{ensemble['collisions_per_s'] / 1e6:.1f}e6 on the two threads",
-        f"({min(steps):.1f} to {max(steps):.1f} per flight",
-        f"where {100 * by_f[58.0]['tiny_share']:.0f} % of the flights are tiny hops",
-        f"an event costs {by_f[58.0]['ns_per_event']:.0f} ns; at 88.4 Hz, where "
-        f"{100 * by_f[88.4]['tiny_share']:.0f} % are, {by_f[88.4]['ns_per_event']:.0f} ns",
-        f"1e{round(math.log10(paper['max_time_error_s'] / err))} times less accurate",
-        f"{paper['cost_ratio_to_exact']:.1f} times slower",
-        f"{fs[0]['collisions_per_particle_per_s']:.0f} collisions per particle per second "
-        f"instead of {ref['collisions_per_particle_per_s']:.0f}",
-        f"({fs[0]['D_diff_in_se']:+.1f} and {fs[1]['D_diff_in_se']:+.1f} se)",
-        f"E by {fs[0]['E'] - ref['E']:.0f} +- {math.hypot(fs[0]['E_se'], ref['E_se']):.0f} and "
-        f"{fs[1]['E'] - ref['E']:.0f} +- {math.hypot(fs[1]['E_se'], ref['E_se']):.0f} "
-        f"({fs[0]['E_diff_in_se']:.1f} and {fs[1]['E_diff_in_se']:.1f} se)",
-        f"E_y by {fs[0]['E_y'] - ref['E_y']:.0f} and {fs[1]['E_y'] - ref['E_y']:.0f} +- "
-        f"{math.hypot(fs[0]['E_y_se'], ref['E_y_se']):.1f} ({fs[0]['E_y_diff_in_se']:.1f} and "
-        f"{fs[1]['E_y_diff_in_se']:.1f} se)",
-        f"{100 * (fs[0]['E'] - ref['E']) / ref['E']:.1f} % of E",
-    ]
-    # "above 8e6 at 58 Hz only"; the fixed-step D "within 3 se"
-    assert [p["f"] for p in prof if p["collisions_per_s"] > 8e6] == [58.0]
-    assert all(abs(r["D_diff_in_se"]) < 3 for r in fs)
-    # the steps per flight before and after, cited under the full scan's kernel table
-    steps0 = {p["f"]: p["steps_per_flight"] for p in before.meta["profile"]}
-    expected.append(
-        f"from {steps0[70.0]:.2f} to {by_f[70.0]['steps_per_flight']:.2f} at 70 Hz, from "
-        f"{steps0[85.2]:.2f} to {by_f[85.2]['steps_per_flight']:.2f} at 85.2 Hz and from "
-        f"{steps0[88.4]:.2f} to {by_f[88.4]['steps_per_flight']:.2f} at 88.4 Hz"
-    )
-    # the previous run, cited: its one-flight and ensemble speeds and its exact D at 85.2 Hz
-    rows0, ref0 = before.meta["rows"], before.meta["observables"][0]
-    ens0 = next(r for r in rows0 if "ensemble" in r["setting"])
-    se = math.hypot(ref["D_se"], ref0["D_se"])
-    expected += [
-        f"gave {rows0[0]['collisions_per_s'] / 1e6:.2f}e6 collisions/s for one flight and "
-        f"{ens0['collisions_per_s'] / 1e6:.2f}e6 for the ensemble",
-        f"moved from {ref0['D']:.1f} +- {ref0['D_se']:.1f} (bd1e3d6) to {ref['D']:.2f} +- "
-        f"{ref['D_se']:.1f} mm^2/s (7c21b69), {abs(ref['D'] - ref0['D']) / se:.1f} combined se",
-    ]
-    for sentence in expected:
-        assert sentence in text, sentence
-    assert all(r["wrong_contacts"] == 0 for r in fixed.values())  # "no wrong contact"
+    from bbdyn.results import load_result
+
+    return load_result(ROOT / "docs" / "bench" / "bench_billiard.json").meta
+
+
+def test_committed_run_errors_and_costs():
+    """docs/benchmarks.md, billiard: the exact kernel's one-step time error is at rounding
+    level (a few ulp of a flight of at most a period or so); each fixed-step row is late by
+    less than its dt_min, finds the right contact and costs more than the exact kernel."""
+    meta = _committed_billiard()
+    period = 1.0 / meta["case"]["f"]
+    exact = [r for r in meta["rows"] if r["method"] == "exact"]
+    assert all(r["max_time_error_s"] <= 16 * EPS * 2 * period for r in exact
+               if r["max_time_error_s"] is not None and math.isfinite(r["max_time_error_s"]))
+    for r in meta["rows"]:
+        if r["method"] == "fixed_step":
+            assert r["max_time_error_s"] < r["dt_min"] and r["wrong_contacts"] == 0
+            assert r["cost_ratio_to_exact"] > 1
+        if r["method"] == "heyoka":
+            assert r["max_time_error_s"] < 1e-16
+
+
+def test_committed_run_fixed_step_observables():
+    """The fixed step turns sticking into micro-bounces (over ten times the exact kernel's
+    collisions per particle-second); its D agrees with the exact kernel's within 3 combined
+    standard errors while an energy differs by more (the bias the page calls measurable)."""
+    ref, *fixed = _committed_billiard()["observables"]
+    assert ref["method"] == "exact" and fixed
+    for r in fixed:
+        assert r["collisions_per_particle_per_s"] > 10 * ref["collisions_per_particle_per_s"]
+        assert abs(r["D_diff_in_se"]) < 3
+        for key in ("D", "E", "E_y"):
+            z = (r[key] - ref[key]) / math.hypot(r[key + "_se"], ref[key + "_se"])
+            assert math.isclose(z, r[key + "_diff_in_se"], rel_tol=1e-9)
+    assert max(max(r["E_diff_in_se"], r["E_y_diff_in_se"]) for r in fixed) > 3
+
+
+def test_committed_run_tiny_hops_are_the_cheap_events():
+    """In the profile, the frequency with the largest share of tiny hops has the cheapest
+    events and the fewest safe steps per flight, the one with the smallest share the dearest."""
+    profile = _committed_billiard()["profile"]
+    by_tiny = sorted(profile, key=lambda p: p["tiny_share"])
+    by_cost = sorted(profile, key=lambda p: p["ns_per_event"])
+    assert by_tiny[-1] is by_cost[0] and by_tiny[0] is by_cost[-1]
+    assert by_tiny[-1]["steps_per_flight"] == min(p["steps_per_flight"] for p in profile)
 
 
 def test_compared_flights_start_from_the_fixed_attractor_state():

@@ -1,4 +1,4 @@
-"""Scan cost model (issue 12): its arithmetic on fake timers with known cost, no timing."""
+"""Scan cost model: its arithmetic on fake timers with known cost, no timing."""
 
 import math
 
@@ -138,36 +138,18 @@ def test_predicted_vs_measured_table_lines_up_bands_and_ratios():
     assert lines[-1] == total
 
 
-def test_the_docs_table_is_the_committed_prediction():
-    """docs/benchmarks.md shows the cost model's predictions for c98c783 and 7c21b69 beside
-    the full scans they predict, and its sentences hold: every band within its error, both
-    totals within 5 %, the predicted and measured speed-ups as stated."""
+def test_committed_prediction_holds_for_the_committed_full_scan():
+    """docs/benchmarks.md: the committed cost model's prediction (docs/bench/scan_cost.json)
+    lies within its stated error of the committed full scan's CPU time in every band and in
+    total, and its error is not so wide that it could not miss (under 100 % in total)."""
     import json
 
     from derivation_loader import ROOT
 
-    bench, scans = ROOT / "docs" / "bench", ROOT / "docs" / "scan_compare"
-    pred = [json.loads((bench / f"scan_cost_{c}.json").read_text())["meta"]["rows"]
-            for c in ("c98c783", "987965b")]  # fmt: skip
-    meas = [json.loads((scans / f"full_scan_{c}.json").read_text())["points"]
-            for c in ("c98c783", "7c21b69")]  # fmt: skip
-    text = (ROOT / "docs" / "benchmarks.md").read_text()
-    assert sc.predicted_vs_measured_table(pred, meas, ["c98c783", "7c21b69"]) in text
-    flat = " ".join(text.split())
-    band_ratio_p, band_ratio_m = [], []
-    for rows, points in zip(pred, meas, strict=True):
-        sums = sc.band_sums(points)
-        for r, s in zip(rows[:-1], sums[:-1], strict=True):
-            assert abs(r["predicted_cpu_s"] - s) <= r["error_cpu_s"]
-        assert abs(rows[-1]["predicted_cpu_s"] - sums[-1]) <= 0.05 * sums[-1]
-        # "their stated errors are about 25 %"
-        assert 0.2 < rows[-1]["error_cpu_s"] / rows[-1]["predicted_cpu_s"] < 0.3
-    for i in range(6):
-        band_ratio_p.append(pred[0][i]["predicted_cpu_s"] / pred[1][i]["predicted_cpu_s"])
-        band_ratio_m.append(sc.band_sums(meas[0])[i] / sc.band_sums(meas[1])[i])
-    assert (
-        f"predicted speed-up ({min(band_ratio_p[:5]):.2f}-{max(band_ratio_p[:5]):.2f} per band, "
-        f"{band_ratio_p[5]:.2f} in all)" in flat
-    )
-    assert f"measured one ({min(band_ratio_m[:5]):.2f}-{max(band_ratio_m[:5]):.2f}, " in flat
-    assert f"{band_ratio_m[5]:.2f})" in flat
+    rows = json.loads((ROOT / "docs" / "bench" / "scan_cost.json").read_text())["meta"]["rows"]
+    scan = json.loads((ROOT / "docs" / "scan_compare" / "full_scan.json").read_text())
+    measured = sc.band_sums(scan["points"])
+    assert len(rows) == len(measured) == len(sc.BANDS) + 1
+    for row, cpu in zip(rows, measured, strict=True):
+        assert abs(row["predicted_cpu_s"] - cpu) <= row["error_cpu_s"]
+    assert rows[-1]["error_cpu_s"] < rows[-1]["predicted_cpu_s"]

@@ -1,7 +1,5 @@
 """benchmarks/chatter_oracle.py: what an earlier chattering sum could save at most."""
 
-import json
-
 from derivation_loader import ROOT, load_benchmark
 
 
@@ -31,20 +29,3 @@ def test_prediction_divides_each_point_by_its_interpolated_ratio():
     # 50 Hz: /2; 51.5 Hz: halfway between 2 and 4, /3; 49.8 Hz below the first sample: /2
     assert pred[0] == 8.0 / 2 + 9.0 / 3 + 2.0 / 2
     assert pred[4] == 5.0 and pred[-1] == sum(pred[:-1])
-
-
-def test_the_docs_show_the_committed_report():
-    m = _module()
-    report = json.loads((ROOT / "docs" / "scan_compare" / "chatter_oracle.json").read_text())
-    scan = json.loads((ROOT / report["scan"]).read_text())
-    wall = json.loads((ROOT / "docs" / "scan_compare" / "full_scan_323a012_wall.json").read_text())
-    text = (ROOT / "docs" / "benchmarks.md").read_text()
-    flat = " ".join(text.split())
-    assert m.doc_table(report, scan["points"]) in text
-    assert m.predict(report, scan["points"]) == report["predicted_cpu_s"]
-    walls = [p[-1] * wall["wall_s"] / scan["cpu_s"] for p in report["predicted_cpu_s"]]
-    assert "these are " + ", ".join(f"{w:.0f} s" for w in walls) + " wall" in flat
-    # "even the unchecked sum at the largest V only brings the scan to about 10 minutes"
-    assert report["v"][-1] == max(report["v"]) and walls[-1] == min(walls)
-    assert abs(walls[-1] - 600.0) < 0.05 * 600.0
-    assert "at the largest V only brings the scan to about 10 minutes (600 s)" in flat

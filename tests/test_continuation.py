@@ -140,34 +140,27 @@ def test_km_multipliers_are_the_eigenvalues_of_the_jacobian_product(k, m, gamma)
         assert sum(p.chain.flight) == pytest.approx(TWO_PI * k, rel=1e-12)
 
 
-def _doc_table():
-    """Rows of the doubling table of docs/higher_tongues.md as lists of cells."""
+def test_stored_cascades_are_what_the_cascade_computes():
+    """docs/data/flat_tables.json (the doubling table of docs/higher_tongues.md): every
+    Gamma_n and ratio of the stored cascades, recomputed."""
+    import json
     from pathlib import Path
 
-    text = (Path(__file__).parents[1] / "docs" / "higher_tongues.md").read_text()
-    block = text.split("<!-- doubling-table -->")[1].split("<!-- /doubling-table -->")[0]
-    lines = block.strip().splitlines()[2:]
-    return [[c.strip() for c in ln.strip().strip("|").split("|")] for ln in lines]
-
-
-def test_doc_table_is_what_the_cascade_computes():
-    """docs/higher_tongues.md: every printed Gamma_n and ratio, to its printed digits."""
     from bbdyn.continuation import doubling_cascade
 
-    rows = _doc_table()
-    table = doubling_cascade(0.5, 3, len(rows))
-    for n, cells in enumerate(rows):
-        assert int(cells[0]) == n + 1
-        for i in range(3):
-            gamma, ratio = cells[1 + 2 * i], cells[2 + 2 * i]
-            assert float(gamma) == pytest.approx(table["gamma_doubling"][i, n], abs=1e-12)
-            if ratio:
-                assert float(ratio) == pytest.approx(table["ratio"][i, n], abs=1e-5)
-            else:
-                assert not np.isfinite(table["ratio"][i, n])
-    # row 1 is the closed-form upper tongue edge
-    for i in range(3):
-        assert float(rows[0][1 + 2 * i]) == pytest.approx(tongue_gamma_hi(i + 1, 0.5), abs=1e-12)
+    path = Path(__file__).parents[1] / "docs" / "data" / "flat_tables.json"
+    stored = json.loads(path.read_text())["doublings"]
+    levels = len(stored[0]["gamma_doublings"])
+    table = doubling_cascade(0.5, len(stored), levels)
+    for i, stored_k in enumerate(stored):
+        assert stored_k["k"] == i + 1 and stored_k["status"] == "done"
+        assert stored_k["gamma_doublings"] == pytest.approx(table["gamma_doubling"][i], abs=1e-12)
+        ratios = stored_k["feigenbaum_ratios"]
+        assert ratios == pytest.approx(table["ratio"][i, 1 : 1 + len(ratios)], abs=1e-9)
+        assert not np.isfinite(table["ratio"][i, 0])
+        # the first doubling is the closed-form upper tongue edge
+        assert stored_k["gamma_doublings"][0] == pytest.approx(tongue_gamma_hi(i + 1, 0.5),
+                                                              abs=1e-12)  # fmt: skip
 
 
 def _cli(argv):

@@ -276,3 +276,22 @@ def test_scene_s1_quick_saves_numbers_and_redraws(tmp_path):
     assert isinstance(loaded, SceneS1Result)
     assert np.array_equal(loaded["gamma_hi_numeric"], result["gamma_hi_numeric"])
     assert redraw_scene(tmp_path / "S1.json").exists()
+
+
+def test_stored_tongue_table_is_the_closed_form_and_the_numeric_edges_agree():
+    """docs/data/flat_tables.json (the table of docs/tongues.md): the closed-form edges and
+    their frequencies at alpha = 0.5, and numeric edges within a few ulp of them."""
+    import json
+    from pathlib import Path
+
+    from bbdyn.tongues import frequency_at_gamma, tongue_gamma_hi, tongue_gamma_lo
+
+    path = Path(__file__).parents[1] / "docs" / "data" / "flat_tables.json"
+    for row in json.loads(path.read_text())["tongues"]:
+        k = row["k"]
+        assert row["gamma_lo"] == pytest.approx(tongue_gamma_lo(k, 0.5), rel=1e-15)
+        assert row["gamma_hi"] == pytest.approx(tongue_gamma_hi(k, 0.5), rel=1e-15)
+        assert row["f_hi_hz"] == pytest.approx(frequency_at_gamma(row["gamma_hi"]), rel=1e-15)
+        for edge in ("lo", "hi"):
+            dev = (row[f"gamma_{edge}_numeric"] - row[f"gamma_{edge}"]) / row[f"gamma_{edge}"]
+            assert dev == row[f"{edge}_rel_dev"] and abs(dev) < 8 * np.finfo(float).eps

@@ -36,7 +36,7 @@ def tail_terms(aw, x, budget):
     ``A w x^N / N!`` over the span ``x = w u_max`` (rad; ``aw = A w``), is at most ``budget``
     (mm/s), or -1 if degree 16 leaves more.  The remainder in the gap is then at most
     ``u_max / (N + 1)`` times that (``|d^n/du^n A sin(theta + w u)| <= A w^n``).  Three
-    degrees rather than the lowest sufficient one: docs/benchmarks.md compares the choices."""
+    degrees rather than the lowest sufficient one (benchmarks/flat_flights.py times the choices)."""
     x2 = x * x
     x4 = x2 * x2
     x8 = x4 * x4

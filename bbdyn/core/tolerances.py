@@ -161,7 +161,7 @@ FMA = {"contract"}
 # ball's flight, the flight integrals) are compiled with numba's ``forceinline=True``: LLVM
 # inlines them into every caller, which saves the call (the floats the caller keeps in
 # registers, spilled around it; the result tuple, returned through memory): 1.2-1.4 times the
-# events per second of the ensemble kernel (docs/benchmarks.md).  Numba's own
+# events per second of the ensemble kernel (benchmarks/kernel_buffers.py).  Numba's own
 # ``inline="always"`` would type the inlined copies again, a minute or more of compilation
 # per kernel.  A function compiled as their callee inherits the flag, so they call only
 # functions that carry ``inline="always"`` or ``forceinline`` themselves

@@ -98,8 +98,7 @@ CASE = {
 
 #: The compared flights start at every STATE_STRIDE-th event from ``CASE["attractor"]``:
 #: consecutive events are correlated (a chattering sequence, a stretch of long flights), and
-#: a stretch of them is a poor sample (docs/benchmarks.md, "The continuous billiard run on
-#: the ensemble's event path").
+#: a stretch of them is a poor sample.
 STATE_STRIDE = 50
 
 #: A flight whose time differs from the reference by more than this fraction of

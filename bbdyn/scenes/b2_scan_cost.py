@@ -38,7 +38,7 @@ from bbdyn.reference.timing import single_thread
 from bbdyn.results import Result, make_meta
 
 __all__ = ["BANDS", "FULL", "QUICK", "agreement_sentence", "band_masks", "band_sums", "compute",
-           "measured_table", "predict",
+           "measured_bands", "measured_table", "predict",
            "predicted_vs_measured_table", "sample_frequencies",
            "table"]  # fmt: skip
 
@@ -273,18 +273,34 @@ def band_masks(points: list[dict], bands=BANDS):
     return f, cpu, [(f >= lo - 1e-9) & (f <= hi + 1e-9) for lo, hi in bands]
 
 
-def measured_table(points: list[dict], bands=BANDS) -> str:
-    """Where a real scan's time went: per band of ``bands``, the summed ``cpu_s`` of the
-    points of ``bbdyn scan --json`` (``points``: dicts with ``f`` in Hz and ``cpu_s``), its
-    share, the number of points and the costliest point (markdown table)."""
+def measured_bands(points: list[dict], bands=BANDS) -> list[dict[str, Any]]:
+    """Where a real scan's time went: per band of ``bands`` and then for all points
+    (``band`` "all"), the summed ``cpu_s`` of the points of ``bbdyn scan --json``
+    (``points``: dicts with ``f`` in Hz and ``cpu_s``), its share, the number of points and
+    the costliest point (``costliest_cpu_s`` at ``costliest_f``; None in an empty band)."""
     f, cpu, masks = band_masks(points, bands)
-    lines = ["| band (Hz) | CPU s | share | points | costliest point |", "|---|---:|---:|---:|---|"]
-    for (lo, hi), sel in zip(bands, masks, strict=True):
+    names = [f"{lo:g}-{hi:g}" for lo, hi in bands] + ["all"]
+    out = []
+    for name, sel in zip(names, [*masks, np.ones(f.size, bool)], strict=True):
         top = int(np.argmax(np.where(sel, cpu, -1.0)))
-        costliest = f"{cpu[top]:.1f} s at {f[top]:g} Hz" if sel.any() else "-"
-        lines.append(f"| {lo:g}-{hi:g} | {cpu[sel].sum():.0f} | {cpu[sel].sum() / cpu.sum():.0%} "
-                     f"| {int(sel.sum())} | {costliest} |")  # fmt: skip
-    lines.append(f"| all | {cpu.sum():.0f} | 100% | {f.size} | |")
+        out.append({"band": name, "cpu_s": float(cpu[sel].sum()),
+                    "share": float(cpu[sel].sum() / cpu.sum()), "points": int(sel.sum()),
+                    "costliest_cpu_s": float(cpu[top]) if sel.any() else None,
+                    "costliest_f": float(f[top]) if sel.any() else None})  # fmt: skip
+    return out
+
+
+def measured_table(points: list[dict], bands=BANDS) -> str:
+    """``measured_bands`` as a markdown table (band, CPU s, share, points, costliest point)."""
+    lines = ["| band (Hz) | CPU s | share | points | costliest point |", "|---|---:|---:|---:|---|"]
+    rows = measured_bands(points, bands)
+    for r in rows[:-1]:
+        costliest = "-"
+        if r["points"]:
+            costliest = f"{r['costliest_cpu_s']:.1f} s at {r['costliest_f']:g} Hz"
+        lines.append(f"| {r['band']} | {r['cpu_s']:.0f} | {r['share']:.0%} | {r['points']} "
+                     f"| {costliest} |")  # fmt: skip
+    lines.append(f"| all | {rows[-1]['cpu_s']:.0f} | 100% | {rows[-1]['points']} | |")
     return "\n".join(lines)
 
 

@@ -7,10 +7,11 @@ A page never types a number that a computation produced. It writes a reference i
 
 ``FILE`` is a JSON file relative to ``docs/``; ``KEY`` a path of keys (and list indices)
 separated by ``/``; ``|FMT`` an optional Python format spec for numbers (``.3g`` when left
-out for floats). A value ``{"value": v, "se": s}`` is written ``v ± s`` with the same spec
-for both. A missing file or key is a build error (the site is built with ``-W``), so a page
-cannot keep a number whose data is gone. ``resolve`` is what the tests call to check every
-reference of the pages without building the site.
+out for floats; in a Markdown table cell write ``\\|FMT``, since ``|`` ends the cell). A
+value ``{"value": v, "se": s}`` is written ``v ± s`` with the same spec for both. A missing
+file or key is a build error (the site is built with ``-W``), so a page cannot keep a number
+whose data is gone. ``resolve`` is what the tests call to check every reference of the pages
+without building the site.
 """
 
 from __future__ import annotations
@@ -70,7 +71,8 @@ def format_value(value: object, fmt: str | None) -> str:
 
 def resolve(reference: str) -> str:
     """Text of one reference ``FILE:KEY[|FMT]``; KeyError or ValueError when it is broken."""
-    match = REFERENCE.match(reference.strip())
+    # in a Markdown table a cell ends at "|", so a reference there writes "\\|FMT"
+    match = REFERENCE.match(reference.strip().replace("\\|", "|"))
     if match is None:
         raise ValueError(f"a data reference is FILE.json:KEY[|FMT], got '{reference}'")
     return format_value(lookup(match["file"], match["key"]), match["fmt"])
