@@ -4,7 +4,9 @@ Runs a fixed set of small simulations through the public API -- ensembles (n = 3
 t = 10 s, seed 0, every observable, fast-forward on and off) at 50.2, 58, 70.2, 85.2 and
 90 Hz, flat-ball trajectories and an ensemble, billiard trajectories -- and either saves
 every output array (``save DIR``) or compares them with a saved set (``compare DIR``):
-arrays must be equal bit for bit (NaN payloads and signed zeros included).
+arrays must be equal bit for bit (NaN payloads and signed zeros included).  The kernels
+are compiled into a fresh numba cache (numba's cache of a function does not notice a
+change in a function of another module it inlines), unless ``--reuse-cache``.
 
 Usage::
 
@@ -15,6 +17,7 @@ Usage::
 import argparse
 import os
 import sys
+import tempfile
 
 import numpy as np
 
@@ -32,8 +35,14 @@ def runs():
     for f in FREQUENCIES:
         for ff in ("converged", "off"):
             res = ensemble(
-                Params(f=f), n=32, t=10.0, seed=0, threads=1, observables=obs,
-                record_particles=2, fast_forward=ff,
+                Params(f=f),
+                n=32,
+                t=10.0,
+                seed=0,
+                threads=1,
+                observables=obs,
+                record_particles=2,
+                fast_forward=ff,
             )
             yield f"ensemble_{f}_{ff}", {k: res[k] for k in res.arrays}
         traj = simulate(Params(f=f), n_events=20000, s0=1.0, vx0=3.0, vy0=20.0)
@@ -54,7 +63,10 @@ def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("mode", choices=("save", "compare"))
     parser.add_argument("directory")
+    parser.add_argument("--reuse-cache", action="store_true", help="keep numba's cache")
     args = parser.parse_args()
+    if not args.reuse_cache:
+        os.environ["NUMBA_CACHE_DIR"] = tempfile.mkdtemp(prefix="bitwise_check_")
     os.makedirs(args.directory, exist_ok=True)
     bad = 0
     for name, arrays in runs():

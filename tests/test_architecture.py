@@ -52,7 +52,8 @@ ALLOWED = {
 #: Scenes that may import the core: the benchmarks (they time and compare kernels).
 BENCHMARK_SCENES = ("bbdyn.scenes.b2_flat", "bbdyn.scenes.b2_billiard")
 #: Third-party packages the core may use.
-CORE_THIRD_PARTY = {"math", "numpy", "numba", "typing"}  # typing: NamedTuple buffers
+# typing: NamedTuple buffers; numba_cuda: the CUDA target of the same functions (core.targets)
+CORE_THIRD_PARTY = {"math", "numpy", "numba", "numba_cuda", "typing"}
 
 
 def module_name(path: Path) -> str:

@@ -73,6 +73,7 @@ from bbdyn.core.flat import (
     time_above,
 )
 from bbdyn.core.floor import arc_root, bounce, bounce_at, floor_drop
+from bbdyn.core.fmath import clamp, fmax2, fmin2
 from bbdyn.core.plate import advance_phase, sin_cos
 from bbdyn.core.status import (
     BAD_STATE,
@@ -145,7 +146,7 @@ def segment_gap_phase(tau, k, phase_sin, phase_cos, xi0, S0, vx, vyrel, kp):
     half = 0.5 * kp.d
     F, Fp, sn, cn = flat_gap_phase(vyrel, kp.g, kp.A, kp.w, phase_sin, phase_cos, tau)
     dx = vx * tau - k * kp.d
-    xi = min(max(xi0 + dx, -half), half)
+    xi = clamp(xi0 + dx, -half, half)
     S = arc_root(xi, kp)
     G = F + floor_drop(dx, xi0, xi, S0, S)
     Gp = Fp + vx * xi / S
@@ -199,12 +200,12 @@ def tangent_departure(sn, xi0, S0, vx, tc, kp):
         return 0.0
     tau = tc if tc < math.inf else 1.0 / w
     for _ in range(DEPARTURE_MAX_TRIES):
-        xm = min(max(abs(xi0), abs(xi0 + vx * tau)), half)
+        xm = fmin2(fmax2(abs(xi0), abs(xi0 + vx * tau)), half)
         Sm = arc_root(xm, kp)
         J = A * w * w * w + 3.0 * R * R * xm * abs(vx) ** 3 / Sm**5
         if J * tau < DEPARTURE_MARGIN * G2:
             return tau
-        tau = min(0.5 * tau, DEPARTURE_SHRINK * G2 / J)
+        tau = fmin2(0.5 * tau, DEPARTURE_SHRINK * G2 / J)
     return 0.0
 
 
@@ -387,7 +388,7 @@ def flight_search(phase, sn, cs, xi0, S0, vx, vyrel, kp, cubic):
         # theta_e or the first tile crossing, whichever comes first.
         if Gp < 0.0:
             return 0.0, k_base, xi0, vyrel, 0, BAD_STATE
-        tau = min((theta_e - phase) / w, tc)
+        tau = fmin2((theta_e - phase) / w, tc)
         if tau == tc:
             k += direction
     elif Gp == 0.0:
@@ -398,7 +399,7 @@ def flight_search(phase, sn, cs, xi0, S0, vx, vyrel, kp, cubic):
             k += direction
     elif not Gp > 0.0:
         return 0.0, k_base, xi0, vyrel, 0, BAD_STATE
-    tc = max(crossing_time(xi0, k, vx, d), tau)
+    tc = fmax2(crossing_time(xi0, k, vx, d), tau)
 
     known = tau == 0.0  # the gap is known at tau: G = 0 at the start, else evaluated below
     for n in range(ROOT_MAX_STEPS):
@@ -409,7 +410,7 @@ def flight_search(phase, sn, cs, xi0, S0, vx, vyrel, kp, cubic):
             G, Gp, G_env, G_envp, xi, S, sn_t, cn_t = segment_gap_phase(
                 tau, k, sn, cs, xi0, S0, vx, vyrel, kp
             )
-            tc = max(crossing_time(xi0, k, vx, d), tau)
+            tc = fmax2(crossing_time(xi0, k, vx, d), tau)
         known = False
         if G <= 0.0 and tau > 0.0:
             return tau, k + k_base, xi, G_envp, n, OK
@@ -426,7 +427,7 @@ def flight_search(phase, sn, cs, xi0, S0, vx, vyrel, kp, cubic):
             return tau, k + k_base, xi, G_envp, n, OK
         s_env = flight_step(G_env, G_envp, m, M, K, cubic) if G_env > 0.0 else 0.0
         room = tc - tau
-        if s_env > min(s_tile, room):
+        if s_env > fmin2(s_tile, room):
             tau += s_env
             k = tile_offset(xi0, vx, tau, d)
         elif s_tile >= room:
@@ -443,7 +444,7 @@ def flight_search(phase, sn, cs, xi0, S0, vx, vyrel, kp, cubic):
             bracketed = cubic and upper < 0.0 and s_up < room  # contact on this tile
             if bracketed and L * s_tile**3 <= 6.0 * EPS * abs(G_envp):
                 Fp = G_envp - s_tile * (m - m_pad + 0.5 * s_tile * K * cn_t)
-                xi = min(max(xi0 + (vx * tau_next - k * d), -half), half)
+                xi = clamp(xi0 + (vx * tau_next - k * d), -half, half)
                 return tau_next, k + k_base, xi, Fp, n + 1, OK
             tau = tau_next
     return tau, k + k_base, xi, G_envp, ROOT_MAX_STEPS, ROOT_NOT_CONVERGED
@@ -609,7 +610,7 @@ def lands_at_once(periods, phase, vyrel, g_eff, kp):
     """
     if not g_eff > 0.0:
         return False
-    p1, ph1 = advance_phase(periods, phase, kp.w * 2.0 * max(vyrel, 0.0) / g_eff)
+    p1, ph1 = advance_phase(periods, phase, kp.w * 2.0 * fmax2(vyrel, 0.0) / g_eff)
     return p1 == periods and ph1 == phase
 
 
@@ -656,7 +657,7 @@ def collide_trig(periods, phase, sn, cs, tile, xi, vx, vyrel, kp):
                 # drift past the wedge ends in the wedge (it is below 1e-9 mm).
                 c = math.cos(ds / kp.R)
                 s = math.sin(ds / kp.R)
-                xi = min(max(xi * c + S * s, -half), half)
+                xi = clamp(xi * c + S * s, -half, half)
                 periods, phase = advance_phase(periods, phase, kp.w * tau_inf)
                 sn, cs = sin_cos(phase)
                 return periods, phase, tile, xi, 0.0, 0.0, STICK, OK, sn, cs, arc_root(xi, kp)

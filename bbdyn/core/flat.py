@@ -55,6 +55,7 @@ import math
 
 from numba import njit
 
+from bbdyn.core.fmath import fmin2
 from bbdyn.core.plate import (
     advance_phase,
     plate_dvel,
@@ -147,7 +148,7 @@ def cubic_safe_step(G, Gp, m, M, K):
         h = G / -Gp
     else:
         h = safe_step(G, Gp, m)
-    return safe_step(G, Gp, min(M, m + K * h * (1.0 / 3.0)))
+    return safe_step(G, Gp, fmin2(M, m + K * h * (1.0 / 3.0)))
 
 
 @njit(cache=True, fastmath=FMA, inline="always", error_model="numpy")
@@ -233,16 +234,16 @@ def flat_flight_tol(phase, vrel, kp, step_rel):
     finish = step_rel <= ROOT_STEP_REL
     for _ in range(ROOT_MAX_STEPS):
         if G <= 0.0 and tau > 0.0:
-            return tau, min(Gp, 0.0), OK, n_evals
+            return tau, fmin2(Gp, 0.0), OK, n_evals
         if finish and Gp < 0.0 and w * G < -TAYLOR_MAX_SPAN * Gp:
             # the billiard's Taylor finish on the flat gap (xi = vx = 0: no arc terms)
             u, _, Gp_c, solved = taylor_finish(tau, G, Gp, Gp, sn, cn, 0.0, kp.R, 0.0, math.inf, kp)
             if solved:
-                return tau + u, min(Gp_c, 0.0), OK, n_evals + 1
+                return tau + u, fmin2(Gp_c, 0.0), OK, n_evals + 1
         m = g + aw2 * sn
         step = cubic_safe_step(G, Gp, m + m_pad, M, K)
         if step <= step_rel * tau:
-            return tau, min(Gp, 0.0), OK, n_evals
+            return tau, fmin2(Gp, 0.0), OK, n_evals
         tau_next = tau + step
         if tau_up < tau_next < tau_down:
             tau_next = tau_down
@@ -254,7 +255,7 @@ def flat_flight_tol(phase, vrel, kp, step_rel):
             upper = G + s * (Gp - s * (0.5 * m - s * (K / 6.0)))
             if upper < 0.0 and L * step * step * step <= 6.0 * EPS * abs(Gp):
                 Gp_next = Gp - step * (m + 0.5 * step * K * cn)
-                return tau_next, min(Gp_next, 0.0), OK, n_evals
+                return tau_next, fmin2(Gp_next, 0.0), OK, n_evals
         tau = tau_next
         G, Gp, sn, cn = flat_gap_phase(vrel, g, A, w, s0, c0, tau)
         n_evals += 1

@@ -22,6 +22,7 @@ import math
 import numpy as np
 from numba import njit
 
+from bbdyn.core.fmath import clamp
 from bbdyn.core.tolerances import FMA
 
 
@@ -65,7 +66,7 @@ def xi_from_arc_length(s, kp):
     """Inverse of ``arc_length``: xi = R sin(s / R - asin(d / 2R)) (mm), clamped to the tile."""
     half = 0.5 * kp.d
     xi = kp.R * math.sin(s / kp.R - math.asin(half / kp.R))
-    return min(max(xi, -half), half)
+    return clamp(xi, -half, half)
 
 
 @njit(cache=True, fastmath=FMA, inline="always")

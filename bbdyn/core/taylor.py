@@ -12,6 +12,7 @@ import math
 
 from numba import njit
 
+from bbdyn.core.fmath import clamp
 from bbdyn.core.tolerances import (
     EPS,
     FMA,
@@ -212,5 +213,5 @@ def taylor_finish(tau, G, Gp, Fp, sn, cs, xi, S, vx, room, kp):
     if not 0.0 < t < u_max:
         return fail
     half = 0.5 * kp.d
-    xi_c = min(max(xi + vx * t, -half), half)
+    xi_c = clamp(xi + vx * t, -half, half)
     return t, xi_c, series_rate(t, Fp, F2, sn, cs, A, w, K), True
