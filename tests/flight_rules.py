@@ -10,9 +10,34 @@ import numpy as np
 from numba import njit
 
 from bbdyn import Params
-from bbdyn.core.billiard import billiard_event, billiard_flight, billiard_flight_rule
+from bbdyn.core.billiard import (
+    EventState,
+    billiard_event,
+    billiard_flight,
+    event_search,
+    event_trig,
+    flight_search,
+)
+from bbdyn.core.floor import arc_root
+from bbdyn.core.plate import sin_cos
 from bbdyn.core.status import OK, STICK
 from bbdyn.ensemble import ensemble
+
+
+@njit(cache=True)
+def flight_rule(phase, xi0, vx, vyrel, kp, cubic):
+    """``flight_search`` from the phase and point alone, with the cubic (``cubic``) or the
+    quadratic step rule."""
+    sn, cs = sin_cos(phase)
+    return flight_search(phase, sn, cs, xi0, arc_root(xi0, kp), vx, vyrel, kp, cubic)
+
+
+@njit(cache=True)
+def event_rule(periods, phase, tile, xi, vx, vyrel, kind, kp, cubic):
+    """``billiard_event`` with the cubic (``cubic``) or the quadratic step rule."""
+    state = EventState(periods, phase, tile, xi, vx, vyrel, kind)
+    nxt, status, _ = event_search(state, event_trig(phase, xi, kp), kp, cubic)
+    return nxt.periods, nxt.phase, nxt.tile, nxt.xi, nxt.vx, nxt.vyrel, nxt.kind, status
 
 
 @njit(cache=True)
@@ -22,8 +47,8 @@ def both_rules(starts, kp, out):
     quadratic-step search."""
     for j in range(starts.shape[0]):
         phase, xi0, vx, vyrel = starts[j, 0], starts[j, 1], starts[j, 2], starts[j, 3]
-        a = billiard_flight_rule(phase, xi0, vx, vyrel, kp, True)
-        b = billiard_flight_rule(phase, xi0, vx, vyrel, kp, False)
+        a = flight_rule(phase, xi0, vx, vyrel, kp, True)
+        b = flight_rule(phase, xi0, vx, vyrel, kp, False)
         out[j, 0], out[j, 1], out[j, 2], out[j, 3], out[j, 4], out[j, 5] = a
         out[j, 6], out[j, 7], out[j, 8], out[j, 9], _, out[j, 10] = b
 

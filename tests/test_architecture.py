@@ -224,7 +224,7 @@ def test_forceinline_kernels_call_only_inlined_kernels():
         return seen
 
     forced = [name for name in kernels if kind(name) == "forceinline"]
-    assert {"flight_search", "collide_trig", "event_search"} <= set(forced)
+    assert {"flight_search", "collide", "event_search"} <= set(forced)
     for name in forced:
         plain = sorted(c for c in reached(name, set()) if kind(c) == "plain")
         assert not plain, f"forceinline kernel {name} calls plain kernels {plain}"

@@ -1,17 +1,18 @@
 """Cubic safe steps of the billiard's first-contact search (issue 12) against the quadratic rule.
 
-``billiard_flight_rule(..., cubic=False)`` is the previous search (global curvature
-bound M); the kernel now uses ``cubic=True``.  Both must find the same contact (the
-first one: no step may pass it), at the same time within the stated error, checked
+``flight_rule(..., cubic=False)`` (``tests/flight_rules.py``) is the previous search
+(global curvature bound M); the kernel now uses ``cubic=True``.  Both must find the same
+contact (the first one: no step may pass it), at the same time within the stated error, checked
 against the mpmath reference; in non-chaotic runs the event sequences coincide.
 """
 
 import numpy as np
 import pytest
+from flight_rules import event_rule, flight_rule
 from numba import njit
 
 from bbdyn import Params
-from bbdyn.core.billiard import billiard_event_rule, billiard_flight, billiard_flight_rule
+from bbdyn.core.billiard import billiard_flight
 from bbdyn.core.status import IMPACT, OK
 from bbdyn.core.tolerances import IMPACT_TIME_TOL
 from bbdyn.scenes.b2_billiard import CASE, _reference
@@ -24,12 +25,12 @@ N_EVENTS = 10_000
 
 @njit(cache=True)
 def run_rule(state, kp, cubic, out):
-    """``N`` events of ``billiard_event_rule`` from ``state``; rows of ``out``: periods + phase
+    """``N`` events of ``event_rule`` from ``state``; rows of ``out``: periods + phase
     / 2 pi, tile, xi, vx, vyrel, kind.  Returns the status."""
     periods, phase, tile, xi, vx, vyrel = state[0], state[1], state[2], state[3], state[4], state[5]
     kind = int(state[6])
     for i in range(out.shape[1]):
-        periods, phase, tile, xi, vx, vyrel, kind, status = billiard_event_rule(
+        periods, phase, tile, xi, vx, vyrel, kind, status = event_rule(
             periods, phase, tile, xi, vx, vyrel, kind, kp, cubic
         )
         if status != OK:
@@ -46,7 +47,7 @@ def flights_both(starts, kp, out):
     failure status or OK."""
     for i in range(starts.shape[0]):
         for r in range(2):
-            tau, k, _, vym, n, status = billiard_flight_rule(
+            tau, k, _, vym, n, status = flight_rule(
                 starts[i, 0], starts[i, 1], starts[i, 2], starts[i, 3], kp, r == 1
             )
             if status != OK:

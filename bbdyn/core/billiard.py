@@ -7,8 +7,12 @@ position as ``(tile, xi)`` (``tile`` an integer-valued float, ``xi = x - x_c`` i
 relative to the floor (relative velocities keep tiny bounces accurate, see
 ``flat.py``); ``kind`` in {IMPACT, STICK, RELEASE}.
 
-The ladder: ``flight_gap`` (gap at a time) -> ``billiard_flight`` (first contact)
--> ``collide`` (restitution, wedge rule, chattering) -> ``billiard_event``.
+The ladder, one function per rung: ``flight_search`` (first contact; ``flight_gap`` is
+the gap at a time) -> ``collide`` (restitution, wedge rule, chattering) -> ``event_search``
+(a flight and its collision, or a release by ``flat.stick_release``).  The rungs take and
+return the event state as an ``EventState`` and carry the sine and cosine of its phase and
+the arc root of its point as a ``Trig`` (computed once per event); ``billiard_event`` and
+``billiard_flight`` compute the ``Trig`` themselves.
 
 Gap.  After an event at phase theta and ``xi0``, with ``tau`` the time since it,
 
@@ -61,6 +65,7 @@ accelerating downward, the 50 Hz chatter hops) need few steps.
 """
 
 import math
+from typing import NamedTuple
 
 from numba import njit
 
@@ -110,6 +115,26 @@ from bbdyn.core.tolerances import (
     WEDGE_MAX_REFLECTIONS,
     WEDGE_TOL,
 )
+
+
+class EventState(NamedTuple):
+    """State just after an event (see the module docstring)."""
+
+    periods: float  # whole driving periods
+    phase: float  # w t mod 2 pi (rad)
+    tile: float  # tile index (integer-valued)
+    xi: float  # mm from the tile centre, in [-d/2, d/2]
+    vx: float  # horizontal velocity (mm/s)
+    vyrel: float  # vertical velocity relative to the floor (mm/s)
+    kind: int  # IMPACT, STICK or RELEASE
+
+
+class Trig(NamedTuple):
+    """What an event loop carries from one event to the next (``event_trig``)."""
+
+    sn: float  # sin(phase)
+    cs: float  # cos(phase)
+    S: float  # arc_root(xi) (mm)
 
 
 @njit(cache=True, fastmath=FMA, inline="always")
@@ -286,13 +311,6 @@ def tiny_hop(sn, cs, xi0, S0, vx, vyrel, Gp, kp):
     return t, xi0 + vx * t, series_rate(t, vyrel, F2, sn, cs, A, w, K), True
 
 
-@njit(cache=True, fastmath=FMA)
-def billiard_flight_rule(phase, xi0, vx, vyrel, kp, cubic):
-    """``flight_search`` from the phase and point alone (``sin_cos`` and ``arc_root`` here)."""
-    sn, cs = sin_cos(phase)
-    return flight_search(phase, sn, cs, xi0, arc_root(xi0, kp), vx, vyrel, kp, cubic)
-
-
 @njit(cache=True, fastmath=FMA, forceinline=True)
 def flight_search(phase, sn, cs, xi0, S0, vx, vyrel, kp, cubic):
     """First contact with the floor after an event (see the module docstring).
@@ -303,14 +321,14 @@ def flight_search(phase, sn, cs, xi0, S0, vx, vyrel, kp, cubic):
         Phase w t (rad) of the event that starts the flight.
     sn, cs : float
         ``sin_cos(phase)`` (``plate.py``): the event loop computes them once per
-        event and shares them with ``collide`` and the observables (``billiard_event_trig``).
+        event and shares them with ``collide`` and the observables (``event_search``).
     xi0, vx, vyrel : float
         Local coordinate (mm) and velocity relative to the floor (mm/s) just
         after it; the velocity must leave the arc (``V . n > 0``), or may be
         tangent (``V . n = 0``) inside the release window where the floor
         accelerates downward faster than g.
     S0 : float
-        ``arc_root(xi0)`` (mm): ``collide_trig`` computed it for its bounce, and the event
+        ``arc_root(xi0)`` (mm): ``collide`` computed it for its bounce, and the event
         loop carries it to the next flight (a square root fewer per event).
     kp : KernelParams
     cubic : bool
@@ -452,11 +470,13 @@ def flight_search(phase, sn, cs, xi0, S0, vx, vyrel, kp, cubic):
 
 @njit(cache=True, fastmath=FMA)
 def billiard_flight(phase, xi0, vx, vyrel, kp):
-    """First contact with the floor after an event: ``billiard_flight_rule`` with cubic steps.
+    """First contact with the floor after an event: ``flight_search`` (cubic steps) from the
+    phase and point alone (``sin_cos`` and ``arc_root`` here).
 
-    Returns ``(tau, k, xi, vyrel_minus, n_steps, status)`` (see ``billiard_flight_rule``).
+    Returns ``(tau, k, xi, vyrel_minus, n_steps, status)`` (see ``flight_search``).
     """
-    return billiard_flight_rule(phase, xi0, vx, vyrel, kp, True)
+    sn, cs = sin_cos(phase)
+    return flight_search(phase, sn, cs, xi0, arc_root(xi0, kp), vx, vyrel, kp, True)
 
 
 @njit(cache=True, fastmath=FMA, inline="always")
@@ -614,24 +634,15 @@ def lands_at_once(periods, phase, vyrel, g_eff, kp):
     return p1 == periods and ph1 == phase
 
 
-@njit(cache=True, fastmath=FMA)
-def collide(periods, phase, tile, xi, vx, vyrel, kp):
-    """``collide_trig`` from the phase alone; returns its event state without the trig."""
-    sn, cs = sin_cos(phase)
-    out = collide_trig(periods, phase, sn, cs, tile, xi, vx, vyrel, kp)
-    return out[:8]
-
-
 @njit(cache=True, fastmath=FMA, forceinline=True)
-def collide_trig(periods, phase, sn, cs, tile, xi, vx, vyrel, kp):
+def collide(periods, phase, sn, cs, tile, xi, vx, vyrel, kp):
     """Apply the collision at ``(tile, xi)`` and decide whether chattering ends in a stick.
 
     ``sn, cs`` are ``sin_cos(phase)`` (``plate.py``) of the contact.  A contact
     within ``WEDGE_TOL * d`` of a wedge is put on the wedge and treated by
     ``wedge_reflect``; a collapse into the wedge (``wedge_reflect`` gives up, or
-    ``lands_at_once``) is a STICK there.  Returns the event state ``(periods, phase, tile,
-    xi, vx, vyrel, kind, status)``, the sine and cosine of its phase and ``S = arc_root(xi)``
-    (mm) of its point.
+    ``lands_at_once``) is a STICK there.  Returns ``(state, status, trig)``: the
+    ``EventState`` after the collision, the status and its ``Trig``.
     """
     half = 0.5 * kp.d
     xi = snap_to_wedge(xi, kp)
@@ -643,14 +654,15 @@ def collide_trig(periods, phase, sn, cs, tile, xi, vx, vyrel, kp):
         S = arc_root(xi, kp)
     g_eff = kp.g + kp.A * kp.w * kp.w * sn
     if not ok or (abs(xi) == half and lands_at_once(periods, phase, vyrel, g_eff, kp)):
-        return periods, phase, tile, xi, 0.0, 0.0, STICK, OK, sn, cs, S
+        return EventState(periods, phase, tile, xi, 0.0, 0.0, STICK), OK, Trig(sn, cs, S)
     if not (math.isfinite(vx) and math.isfinite(vyrel)):
-        return periods, phase, tile, xi, vx, vyrel, IMPACT, NON_FINITE, sn, cs, S
+        state = EventState(periods, phase, tile, xi, vx, vyrel, IMPACT)
+        return state, NON_FINITE, Trig(sn, cs, S)
     if g_eff > 0.0 and kp.beta < 1.0:
         g_n = (g_eff * S - vt * vt) / kp.R
         if g_n > 0.0:
             if vn <= 0.0:  # 0, or a rounding of 0 after a tangent wedge reflection
-                return periods, phase, tile, xi, 0.0, 0.0, STICK, OK, sn, cs, S
+                return EventState(periods, phase, tile, xi, 0.0, 0.0, STICK), OK, Trig(sn, cs, S)
             tau_inf, ds = chatter_sum(cs, xi, S, vn, vt, g_eff, kp)
             if tau_inf < math.inf:
                 # Rotate the contact point by the angle ds / R along the arc; a
@@ -660,104 +672,78 @@ def collide_trig(periods, phase, sn, cs, tile, xi, vx, vyrel, kp):
                 xi = clamp(xi * c + S * s, -half, half)
                 periods, phase = advance_phase(periods, phase, kp.w * tau_inf)
                 sn, cs = sin_cos(phase)
-                return periods, phase, tile, xi, 0.0, 0.0, STICK, OK, sn, cs, arc_root(xi, kp)
-    return periods, phase, tile, xi, vx, vyrel, IMPACT, OK, sn, cs, S
+                state = EventState(periods, phase, tile, xi, 0.0, 0.0, STICK)
+                return state, OK, Trig(sn, cs, arc_root(xi, kp))
+    return EventState(periods, phase, tile, xi, vx, vyrel, IMPACT), OK, Trig(sn, cs, S)
 
 
 @njit(cache=True, fastmath=FMA, inline="always")
-def event_carry(phase, xi, kp):
-    """``(sn, cs, S)``: ``sin_cos(phase)`` and ``arc_root(xi)`` (mm) of an event state, the
-    values an event loop carries from one event to the next (``billiard_event_trig``)."""
+def event_trig(phase, xi, kp):
+    """The ``Trig`` of an event state: ``sin_cos(phase)`` and ``arc_root(xi)`` (mm)."""
     sn, cs = sin_cos(phase)
-    return sn, cs, arc_root(xi, kp)
-
-
-@njit(cache=True, fastmath=FMA)
-def billiard_event_rule(periods, phase, tile, xi, vx, vyrel, kind, kp, cubic):
-    """``event_search`` from the phase alone; returns its event state without the trig.
-
-    >>> from bbdyn import Params
-    >>> kp = Params(f=58.0).kernel()
-    >>> ev = billiard_event_rule(0.0, 0.0, 0.0, 0.3, 10.0, 50.0, IMPACT, kp, True)
-    >>> ev[-1] == OK and ev[0] + ev[1] > 0.0
-    True
-    """
-    sn, cs, S = event_carry(phase, xi, kp)
-    out = event_search(periods, phase, sn, cs, S, tile, xi, vx, vyrel, kind, kp, cubic)
-    return out[:8]
+    return Trig(sn, cs, arc_root(xi, kp))
 
 
 @njit(cache=True, fastmath=FMA, forceinline=True)
-def event_search(periods, phase, sn, cs, S, tile, xi, vx, vyrel, kind, kp, cubic):
+def event_search(state, trig, kp, cubic):
     """Advance the billiard from one event to the next (docs/model.md §2).
 
     Parameters
     ----------
-    periods, phase : float
-        Time of the current event: whole driving periods and phase w t mod 2 pi (rad).
-    sn, cs : float
-        ``sin_cos(phase)`` (``plate.py``) (computed once per event: the flight
-        and ``collide_trig`` use them, and so do the observables of the event loop).
-    S : float
-        ``arc_root(xi)`` (mm), carried like ``sn, cs`` (``collide_trig`` returns it).
-    tile, xi : float
-        Tile index (integer-valued) and local coordinate (mm) of the particle, on the floor.
-    vx, vyrel : float
-        Velocity relative to the floor just after the event (mm/s); 0, 0 for STICK.
-    kind : int
-        IMPACT, STICK or RELEASE.
+    state : EventState
+        The current event: time ``(periods, phase)``, position ``(tile, xi)`` on the floor,
+        velocity ``(vx, vyrel)`` relative to the floor just after it (0, 0 for STICK) and
+        its ``kind``.
+    trig : Trig
+        ``sin_cos(phase)`` and ``arc_root(xi)`` of ``state`` (computed once per event: the
+        flight and ``collide`` use them, and so do the observables of the event loop).
     kp : KernelParams
     cubic : bool
         Step rule of the first-contact search (``flight_search``).
 
     Returns
     -------
-    tuple
-        ``(periods, phase, tile, xi, vx, vyrel, kind, status, sn, cs, S)`` of the next event
-        (``sn, cs`` the sine and cosine of its phase, ``S = arc_root(xi)``).
+    (state, status, trig)
+        The ``EventState`` of the next event, the status and the event's ``Trig``.
         A stuck particle is released with the floor's velocity at ``theta_r = pi +
         asin(1/Gamma)``, or at once if it stuck inside the release window (a wedge
         collapse while the floor falls faster than g; ``stick_release``); for
         Gamma <= 1 the state is returned unchanged with ``STUCK_FOREVER``.
     """
+    periods, phase, tile, xi, vx, vyrel, kind = state
     if kind == STICK:
         periods_r, phase_r, status = stick_release(periods, phase, kp)
         if status != OK:
-            return periods, phase, tile, xi, 0.0, 0.0, STICK, status, sn, cs, S
+            return EventState(periods, phase, tile, xi, 0.0, 0.0, STICK), status, trig
         sn_r, cs_r = sin_cos(phase_r)
-        return periods_r, phase_r, tile, xi, 0.0, 0.0, RELEASE, OK, sn_r, cs_r, S
+        released = EventState(periods_r, phase_r, tile, xi, 0.0, 0.0, RELEASE)
+        return released, OK, Trig(sn_r, cs_r, trig.S)
 
     tau, k, xi_c, vyrel_minus, _, status = flight_search(
-        phase, sn, cs, xi, S, vx, vyrel, kp, cubic
+        phase, trig.sn, trig.cs, xi, trig.S, vx, vyrel, kp, cubic
     )
     if status != OK:
-        return periods, phase, tile, xi, vx, vyrel, kind, status, sn, cs, S
+        return state, status, trig
     periods, phase = advance_phase(periods, phase, kp.w * tau)
     sn_c, cs_c = sin_cos(phase)
-    return collide_trig(periods, phase, sn_c, cs_c, tile + k, xi_c, vx, vyrel_minus, kp)
+    return collide(periods, phase, sn_c, cs_c, tile + k, xi_c, vx, vyrel_minus, kp)
 
 
 @njit(cache=True, fastmath=FMA)
 def billiard_event(periods, phase, tile, xi, vx, vyrel, kind, kp):
-    """Advance the billiard from one event to the next: ``billiard_event_rule`` with cubic steps.
+    """Advance the billiard from one event to the next: ``event_search`` (cubic steps) from
+    the state alone (``event_trig`` here).
 
     Returns ``(periods, phase, tile, xi, vx, vyrel, kind, status)`` of the next event.
+
+    >>> from bbdyn import Params
+    >>> ev = billiard_event(0.0, 0.0, 0.0, 0.3, 10.0, 50.0, IMPACT, Params(f=58.0).kernel())
+    >>> ev[-1] == OK and ev[0] + ev[1] > 0.0
+    True
     """
-    return billiard_event_rule(periods, phase, tile, xi, vx, vyrel, kind, kp, True)
-
-
-@njit(cache=True, fastmath=FMA, forceinline=True)
-def billiard_event_trig(periods, phase, sn, cs, S, tile, xi, vx, vyrel, kind, kp):
-    """``billiard_event`` for a loop that carries ``sn, cs = sin, cos(phase)`` and ``S =
-    arc_root(xi)`` along.
-
-    Returns ``(periods, phase, tile, xi, vx, vyrel, kind, status, sn, cs, S)`` of the next
-    event: the state of ``billiard_event`` (the same ``sin_cos`` and ``arc_root``, computed
-    once per event instead of up to five times and twice).  Inlined into its caller, the
-    search may fuse other multiply-adds than the standalone ``billiard_event``: the two
-    can differ in the last bit (then chaos amplifies it).
-    """
-    return event_search(periods, phase, sn, cs, S, tile, xi, vx, vyrel, kind, kp, True)
+    state = EventState(periods, phase, tile, xi, vx, vyrel, kind)
+    nxt, status, _ = event_search(state, event_trig(phase, xi, kp), kp, True)
+    return nxt.periods, nxt.phase, nxt.tile, nxt.xi, nxt.vx, nxt.vyrel, nxt.kind, status
 
 
 @njit(cache=True, fastmath=FMA)
@@ -781,23 +767,21 @@ def billiard_run(
     """Iterate ``billiard_event`` and write each event into the ``out_*`` arrays (in place).
 
     Returns ``(n_written, status)``; stops early at a failure or at ``STUCK_FOREVER``.
-    The loop carries each event's sine, cosine and arc root (``billiard_event_trig``, as
-    the ensemble does), computed once per event.
+    The loop carries each event's ``Trig`` (as the ensemble does), computed once per event.
     """
-    sn, cs, S = event_carry(phase, xi, kp)
+    state = EventState(periods, phase, tile, xi, vx, vyrel, kind)
+    trig = event_trig(phase, xi, kp)
     for i in range(out_phase.shape[0]):
-        periods, phase, tile, xi, vx, vyrel, kind, status, sn, cs, S = billiard_event_trig(
-            periods, phase, sn, cs, S, tile, xi, vx, vyrel, kind, kp
-        )
+        state, status, trig = event_search(state, trig, kp, True)
         if status != OK:
             return i, status
-        out_periods[i] = periods
-        out_phase[i] = phase
-        out_tile[i] = tile
-        out_xi[i] = xi
-        out_vx[i] = vx
-        out_vyrel[i] = vyrel
-        out_kind[i] = kind
+        out_periods[i] = state.periods
+        out_phase[i] = state.phase
+        out_tile[i] = state.tile
+        out_xi[i] = state.xi
+        out_vx[i] = state.vx
+        out_vyrel[i] = state.vyrel
+        out_kind[i] = state.kind
     return out_phase.shape[0], OK
 
 
@@ -806,13 +790,15 @@ def billiard_run_count(periods, phase, tile, xi, vx, vyrel, kind, kp, n_events):
     """Iterate ``n_events`` events without storing them (benchmarks, transients).
 
     Returns the final ``(periods, phase, tile, xi, vx, vyrel, kind, n_done, status)``;
-    the events of ``billiard_run``, with the same carried sine, cosine and arc root.
+    the events of ``billiard_run``, with the same carried ``Trig``.
     """
-    sn, cs, S = event_carry(phase, xi, kp)
+    state = EventState(periods, phase, tile, xi, vx, vyrel, kind)
+    trig = event_trig(phase, xi, kp)
+    n_done, status = n_events, OK
     for i in range(n_events):
-        periods, phase, tile, xi, vx, vyrel, kind, status, sn, cs, S = billiard_event_trig(
-            periods, phase, sn, cs, S, tile, xi, vx, vyrel, kind, kp
-        )
+        state, status, trig = event_search(state, trig, kp, True)
         if status != OK:
-            return periods, phase, tile, xi, vx, vyrel, kind, i, status
-    return periods, phase, tile, xi, vx, vyrel, kind, n_events, OK
+            n_done = i
+            break
+    s = state
+    return s.periods, s.phase, s.tile, s.xi, s.vx, s.vyrel, s.kind, n_done, status

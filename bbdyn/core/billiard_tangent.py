@@ -101,7 +101,7 @@ from bbdyn.core.billiard import (
 )
 from bbdyn.core.flat import stick_release
 from bbdyn.core.floor import arc_root, bounce
-from bbdyn.core.plate import TWO_PI, advance_phase
+from bbdyn.core.plate import TWO_PI, advance_phase, sin_cos
 from bbdyn.core.status import IMPACT, NON_FINITE, OK, RELEASE, STICK, STUCK_FOREVER
 from bbdyn.core.tolerances import FMA
 
@@ -307,8 +307,10 @@ def billiard_tangent_event(periods, phase, tile, xi, vx, vyrel, kind, kp, J, W, 
     section_to_flow(phase, xi, vx, vyrel, kp, J)
     flight_flow(tau, J)
     periods_c, phase_c = advance_phase(periods, phase, kp.w * tau)
-    out = collide(periods_c, phase_c, tile + k, xi_c, vx, vyrel_minus, kp)
-    if out[7] != OK:
+    sn_c, cs_c = sin_cos(phase_c)
+    nxt, status, _ = collide(periods_c, phase_c, sn_c, cs_c, tile + k, xi_c, vx, vyrel_minus, kp)
+    out = (nxt.periods, nxt.phase, nxt.tile, nxt.xi, nxt.vx, nxt.vyrel, nxt.kind, status)
+    if status != OK:
         return out
     # the chain of reflections of collide: the first on the arc under the particle ...
     tile_r = tile + k

@@ -43,7 +43,7 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit, prange
 
-from bbdyn.core.billiard import billiard_event_trig
+from bbdyn.core.billiard import EventState, event_search, event_trig
 from bbdyn.core.cycle import release_map
 from bbdyn.core.features import Collision, block_of, feature_collision, feature_finish
 from bbdyn.core.floor import arc_root, floor_height_rel, normal_velocity, xi_from_arc_length
@@ -55,7 +55,7 @@ from bbdyn.core.observables import (
     time_between,
     trap_of,
 )
-from bbdyn.core.plate import plate_height_sin, plate_velocity_cos, sin_cos
+from bbdyn.core.plate import plate_height_sin, plate_velocity_cos
 from bbdyn.core.status import IMPACT, OK, RELEASE, STICK, STUCK_FOREVER
 from bbdyn.core.tolerances import FF_DRIFT_TOL, FF_ENERGY_REL_TOL, FMA
 
@@ -100,18 +100,6 @@ C_TILE0, C_XI0, C_K, C_TRAP, C_DEP_P, C_DEP_PH = 7, 8, 9, 10, 11, 12
 C_NRING, C_RUN, C_NREL = 13, 14, 15
 C_LAM_P, C_LAM_XI, C_LAM = 16, 17, 18
 CARRY_WIDTH = 19
-
-
-class Event(NamedTuple):
-    """A particle's state just after an event (the columns of ``final`` and of the record)."""
-
-    periods: float  # whole driving periods
-    phase: float  # w t mod 2 pi (rad)
-    tile: float
-    xi: float  # mm, on the tile's arc
-    vx: float  # mm/s
-    vyrel: float  # mm/s, relative to the floor
-    kind: int  # IMPACT, STICK or RELEASE (core.status)
 
 
 class Window(NamedTuple):
@@ -170,7 +158,7 @@ class EnsembleOut(NamedTuple):
     jump_len: np.ndarray  # int64 (n, cap): trap changes in the window (units of d)
     jump_time: np.ndarray  # (n, cap): their times (s)
     record: np.ndarray  # (n_rec, cap_rec, REC_WIDTH): collisions of the first n_rec particles
-    final: np.ndarray  # (n, 7): the last event before the end (``Event`` fields)
+    final: np.ndarray  # (n, 7): the last event before the end (``EventState`` fields)
     status: np.ndarray  # int64 (n,): RUNNING on entry to advance; then a core.status code
 
 
@@ -210,13 +198,13 @@ def initial_states(ics, kp, states):
     return first_bad
 
 
-# Inlined into the event loop, as integrate_blocks: called with the Event tuple, the two
+# Inlined into the event loop, as integrate_blocks: called with the EventState tuple, the two
 # calls cost about 2 % of the ensemble's speed (python benchmarks/kernel_buffers.py).
 @njit(cache=True, fastmath=FMA, inline="always")
 def accumulate_interval(acc, j, ev, trig, b, lo, hi, kp, energy):
     """Add to row ``j`` of ``acc`` the integrals over ``[lo, hi]`` of the motion since ``ev``.
 
-    ``ev`` is an ``Event`` (a flight follows it, or the floor is ridden after a STICK),
+    ``ev`` is an ``EventState`` (a flight follows it, or the floor is ridden after a STICK),
     ``trig`` the sine and cosine of its phase; ``lo`` and ``hi`` are ``(periods, phase)``
     pairs inside the interval; ``b`` is the height ``b(xi)`` of the event point above the
     wedges (mm).  Columns ``ACC_*``: the
@@ -310,22 +298,18 @@ def integrate_to_split(acc, ev, p0, split, kp, energy):
     """
     half = Window(p0, split - p0, 1)
     rows = acc[1:]
-    periods, phase, tile, xi, vx, vyrel, kind = ev
-    trig = sin_cos(phase)
-    S = arc_root(xi, kp)
-    while is_before(periods, phase, split, 0.0):
-        nxt = billiard_event_trig(
-            periods, phase, trig[0], trig[1], S, tile, xi, vx, vyrel, kind, kp
-        )
-        if nxt[7] != OK and nxt[7] != STUCK_FOREVER:
+    trig = event_trig(ev.phase, ev.xi, kp)
+    while is_before(ev.periods, ev.phase, split, 0.0):
+        nxt, status, nxt_trig = event_search(ev, trig, kp, True)
+        if status != OK and status != STUCK_FOREVER:
             return
         hi_p, hi_ph = split, 0.0
-        if nxt[7] == OK and is_before(nxt[0], nxt[1], split, 0.0):
-            hi_p, hi_ph = nxt[0], nxt[1]
-        ev_now = Event(periods, phase, tile, xi, vx, vyrel, kind)
-        integrate_blocks(rows, ev_now, trig, (hi_p, hi_ph), half, kp, energy)
-        periods, phase, tile, xi, vx, vyrel = hi_p, hi_ph, nxt[2], nxt[3], nxt[4], nxt[5]
-        kind, trig, S = nxt[6], (nxt[8], nxt[9]), nxt[10]  # hi: that event's time unless the end
+        if status == OK and is_before(nxt.periods, nxt.phase, split, 0.0):
+            hi_p, hi_ph = nxt.periods, nxt.phase
+        integrate_blocks(rows, ev, trig, (hi_p, hi_ph), half, kp, energy)
+        # hi: that event's time unless the end
+        ev = EventState(hi_p, hi_ph, nxt.tile, nxt.xi, nxt.vx, nxt.vyrel, nxt.kind)
+        trig = nxt_trig
 
 
 @njit(cache=True, fastmath=FMA, inline="always")
@@ -423,13 +407,13 @@ def cycles_before(periods, phase, dP, b_p, b_ph):
 
 
 @njit(cache=True, fastmath=FMA)
-def cycle_samples(carry, i, ev, trig, S, lag, n_cycle, dP, dl, K, k, times, kp, disp):
+def cycle_samples(carry, i, ev, trig, lag, n_cycle, dP, dl, K, k, times, kp, disp):
     """Positions at the sample times ``k, k + 1, ...`` inside the ``K`` cycles skipped from
     the release ``ev`` (see ``fast_forward``), into ``disp``; returns ``(k, ok)``, ``k`` the
     first sample after them.
 
     The cycle from ``ev`` is run once more, event by event from the loop's own state
-    (``trig = (sin, cos)`` of its phase, ``S`` its arc root), as the loop would run it; a
+    (``trig`` its ``Trig``), as the loop would run it; a
     sample ``j`` cycles on is placed in it at its time less ``j dP`` periods, its tile ``j dl``
     on.  Periods and tiles are whole numbers, so in the bitwise mode the positions are the
     event-by-event run's bit for bit.  ``ok = False`` (nothing written) unless the cycle run
@@ -448,18 +432,16 @@ def cycle_samples(carry, i, ev, trig, S, lag, n_cycle, dP, dl, K, k, times, kp, 
         return k, True
     # the cycle from ev: each event's periods, phase, tile, xi, vx and whether it sticks
     cycle = np.empty((n_cycle + 1, 6))
-    periods, phase, tile, xi, vx, vyrel, kind = ev
-    sn, cs = trig
+    state = ev
     releases = 0
     for e in range(n_cycle):
-        cycle[e, 0], cycle[e, 1], cycle[e, 2], cycle[e, 3] = periods, phase, tile, xi
-        cycle[e, 4], cycle[e, 5] = vx, 1.0 if kind == STICK else 0.0
-        nxt = billiard_event_trig(periods, phase, sn, cs, S, tile, xi, vx, vyrel, kind, kp)
-        if nxt[7] != OK:
+        cycle[e, 0], cycle[e, 1], cycle[e, 2], cycle[e, 3] = state[:4]
+        cycle[e, 4], cycle[e, 5] = state.vx, 1.0 if state.kind == STICK else 0.0
+        state, status, trig = event_search(state, trig, kp, True)
+        if status != OK:
             return k, False
-        periods, phase, tile, xi, vx, vyrel, kind = nxt[:7]
-        sn, cs, S = nxt[8], nxt[9], nxt[10]
-        releases += kind == RELEASE
+        releases += state.kind == RELEASE
+    periods, phase, tile, kind = state.periods, state.phase, state.tile, state.kind
     same = kind == RELEASE and releases == lag and phase == ev.phase
     if not (same and periods == ev.periods + dP and tile == ev.tile + dl):
         return k, False
@@ -488,7 +470,7 @@ def cycle_samples(carry, i, ev, trig, S, lag, n_cycle, dP, dl, K, k, times, kp, 
 
 
 @njit(cache=True, fastmath=FMA)
-def skip_cycles(carry, i, n_rel, lag, ev, trig, S, zone, k, times, window, split, kp, flags, out):
+def skip_cycles(carry, i, n_rel, lag, ev, trig, zone, k, times, window, split, kp, flags, out):
     """Skip as many copies of the cycle of the last ``lag`` releases (of ``n_rel``) as fit
     before the end in ``zone`` (see ``fast_forward``), the positions at the sample times
     inside them from ``cycle_samples`` (or, where it fails, only those before the next sample
@@ -515,7 +497,7 @@ def skip_cycles(carry, i, n_rel, lag, ev, trig, S, zone, k, times, window, split
     K = cycles_before(periods, phase, dP, b_p, b_ph)
     if K > 0 and (flags & OBS_DISPLACEMENT) != 0:
         k_new, ok = cycle_samples(
-            carry, i, ev, trig, S, lag, n_cycle, dP, dl, K, k, times, kp, out.displacement[i]
+            carry, i, ev, trig, lag, n_cycle, dP, dl, K, k, times, kp, out.displacement[i]
         )
         if ok:
             k = k_new
@@ -533,7 +515,7 @@ def skip_cycles(carry, i, n_rel, lag, ev, trig, S, zone, k, times, window, split
         if K_split < K:
             for c in range(4):
                 acc[1, c] = acc[0, c] + K_split * (acc[0, c] - rel_acc[s, c])
-            release = Event(
+            release = EventState(
                 periods + K_split * dP, phase, tile + K_split * dl, xi, ev.vx, ev.vyrel, ev.kind
             )
             integrate_to_split(acc, release, p0, split, kp, energy)
@@ -556,7 +538,7 @@ def skip_cycles(carry, i, n_rel, lag, ev, trig, S, zone, k, times, window, split
 
 
 @njit(cache=True, fastmath=FMA, inline="always")
-def fast_forward(carry, i, n_rel, ev, trig, S, k, times, window, split, kp, flags, out):
+def fast_forward(carry, i, n_rel, ev, trig, k, times, window, split, kp, flags, out):
     """Skip whole stick-release cycles of particle ``i`` once its releases repeat.
 
     Exactness: a RELEASE leaves at ``phase = theta_r`` with ``vx = vyrel = 0`` relative to
@@ -596,9 +578,9 @@ def fast_forward(carry, i, n_rel, ev, trig, S, k, times, window, split, kp, flag
         The particle.
     n_rel : int
         Releases pushed so far.
-    ev : Event
+    ev : EventState
         This release.
-    trig, S : (float, float), float
+    trig : Trig
         Sine and cosine of its phase and its arc root (mm), as the loop carries them.
     k : int
         The next sample time's index.
@@ -641,7 +623,7 @@ def fast_forward(carry, i, n_rel, ev, trig, S, k, times, window, split, kp, flag
     K, dP, dl = 0, 0.0, 0.0
     if lag > 0:
         K, dP, dl, k = skip_cycles(
-            carry, i, n_rel, lag, ev, trig, S, zone, k, times, window, split, kp, flags, out
+            carry, i, n_rel, lag, ev, trig, zone, k, times, window, split, kp, flags, out
         )
     if K > 0:
         for p in range(lag + 1, min(n_rel, FF_LAGS) + 1):
@@ -741,28 +723,24 @@ def particle_loop(carry, i, budget, kp, times, out, obs, th):
     n_samples = sample_periods.shape[0]
     status = OK
     n_done = 0
-    trig = sin_cos(phase)  # then carried from event to event, as is S
-    S = arc_root(xi, kp)
+    trig = event_trig(phase, xi, kp)  # then carried from event to event
     while True:
         if n_done == budget:
             status = RUNNING
             break
         n_done += 1
-        nxt = billiard_event_trig(
-            periods, phase, trig[0], trig[1], S, tile, xi, vx, vyrel, kind, kp
-        )
-        status = nxt[7]
+        ev = EventState(periods, phase, tile, xi, vx, vyrel, kind)
+        nxt, status, nxt_trig = event_search(ev, trig, kp, True)
         if status == STUCK_FOREVER:
             n_periods, n_phase = math.inf, 0.0
         elif status != OK:
             break
         else:
-            n_periods, n_phase = nxt[0], nxt[1]
+            n_periods, n_phase = nxt.periods, nxt.phase
         counts[CNT_EVENTS] += 1
         last = not is_before(n_periods, n_phase, end_p, end_ph)
         stuck = kind == STICK
         seg_end = (end_p, end_ph) if last else (n_periods, n_phase)
-        ev = Event(periods, phase, tile, xi, vx, vyrel, kind)
         if obs is not None:  # the interval that passes the split (once): row 1 of the blocks
             hi_p, hi_ph = seg_end
             if is_before(periods, phase, split, 0.0) and not is_before(hi_p, hi_ph, split, 0.0):
@@ -784,15 +762,13 @@ def particle_loop(carry, i, budget, kp, times, out, obs, th):
         if last:
             break
 
-        periods, phase, tile, xi, vx, vyrel = nxt[0], nxt[1], nxt[2], nxt[3], nxt[4], nxt[5]
-        kind = nxt[6]
-        trig, S = (nxt[8], nxt[9]), nxt[10]
+        periods, phase, tile, xi, vx, vyrel, kind = nxt
+        trig = nxt_trig
         if kind == RELEASE:
             if do_ff:
                 K, dP, dl, n_rel, k = fast_forward(
-                    carry, i, n_rel, Event(periods, phase, tile, xi, vx, vyrel, kind), trig, S,
-                    k, times, window, split, kp, flags, out,
-                )  # fmt: skip
+                    carry, i, n_rel, nxt, trig, k, times, window, split, kp, flags, out
+                )
                 periods += K * dP
                 tile += K * dl
                 trap += K * dl

@@ -157,7 +157,7 @@ DEPARTURE_MAX_TRIES = 64
 FMA = {"contract"}
 
 # The kernels an event loop calls once per event without ``inline="always"`` (the event
-# search and what it calls: ``flight_search``, ``collide_trig``, ``stick_release``, the flat
+# search and what it calls: ``flight_search``, ``collide``, ``stick_release``, the flat
 # ball's flight, the flight integrals) are compiled with numba's ``forceinline=True``: LLVM
 # inlines them into every caller, which saves the call (the floats the caller keeps in
 # registers, spilled around it; the result tuple, returned through memory): 1.2-1.4 times the

@@ -30,8 +30,8 @@ import math
 import numpy as np
 from numba import njit, prange
 
-from bbdyn.core.billiard import segment_gap, snap_to_wedge, tile_offset, wedge_reflect
-from bbdyn.core.ensemble import ACC_EX, ACC_EY, ACC_POT, Event, accumulate_interval
+from bbdyn.core.billiard import EventState, segment_gap, snap_to_wedge, tile_offset, wedge_reflect
+from bbdyn.core.ensemble import ACC_EX, ACC_EY, ACC_POT, accumulate_interval
 from bbdyn.core.floor import arc_root, floor_height_rel, from_normal_velocity, normal_velocity
 from bbdyn.core.observables import displacement, is_before, time_between
 from bbdyn.core.plate import advance_phase, sin_cos
@@ -208,7 +208,7 @@ def _fixed_particle(i, state, dt, dt_min, kp, end, window, s_periods, s_phase, d
             hi = w1
         if is_before(lo[0], lo[1], hi[0], hi[1]):
             b = floor_height_rel(xi, kp)
-            flight = Event(periods, phase, tile, xi, vx, vyrel, IMPACT)
+            flight = EventState(periods, phase, tile, xi, vx, vyrel, IMPACT)
             accumulate_interval(acc, i, flight, sin_cos(phase), b, lo, hi, kp, True)
         while k < n_samples and (last or is_before(s_periods[k], s_phase[k], nxt[0], nxt[1])):
             x = xi + vx * time_between(s_periods[k], s_phase[k], periods, phase, kp.w, kp.period)

@@ -43,11 +43,12 @@ import numpy as np
 from numba import njit
 
 from bbdyn.core.billiard import (
-    billiard_event_trig,
+    EventState,
     billiard_flight,
     billiard_run,
     billiard_run_count,
-    event_carry,
+    event_search,
+    event_trig,
     snap_to_wedge,
 )
 from bbdyn.core.floor import bounce
@@ -186,7 +187,7 @@ def _continuous(state, kp, n_events):
 @njit(cache=True)
 def flight_profile(state, kp, n_events):
     """Cost profile of ``n_events`` events from ``state``, on the event path of
-    ``_continuous`` (``billiard_event_trig``).
+    ``_continuous`` (``event_search``).
 
     Returns ``(steps, flights, tiny, collisions, sticks, status)``: safe steps summed over
     flights, flights, flights solved without a safe step (tiny hops, ``tiny_hop``),
@@ -194,7 +195,7 @@ def flight_profile(state, kp, n_events):
     """
     periods, phase, tile, xi, vx, vyrel = state[0], state[1], state[2], state[3], state[4], state[5]
     kind = int(state[6])
-    sn, cs, S = event_carry(phase, xi, kp)
+    trig = event_trig(phase, xi, kp)
     steps = 0
     flights = 0
     tiny = 0
@@ -206,9 +207,10 @@ def flight_profile(state, kp, n_events):
             steps += n_steps
             tiny += n_steps == 0
             flights += 1
-        periods, phase, tile, xi, vx, vyrel, kind, status, sn, cs, S = billiard_event_trig(
-            periods, phase, sn, cs, S, tile, xi, vx, vyrel, kind, kp
+        nxt, status, trig = event_search(
+            EventState(periods, phase, tile, xi, vx, vyrel, kind), trig, kp, True
         )
+        periods, phase, tile, xi, vx, vyrel, kind = nxt
         if status != OK:
             return steps, flights, tiny, collisions, sticks, status
         if kind != 2:  # IMPACT or STICK
