@@ -345,12 +345,6 @@ def billiard_tangent_event(periods, phase, tile, xi, vx, vyrel, kind, kp, J, W, 
     return out
 
 
-@njit(cache=True, fastmath=FMA, inline="always")
-def lifted_phase(periods, phase):
-    """Lifted phase ``w t = 2 pi periods + phase`` (rad)."""
-    return TWO_PI * periods + phase
-
-
 @njit(cache=True, fastmath=FMA, error_model="numpy")
 def billiard_tangent_run(
     periods, phase, tile, xi, vx, vyrel, kind, kp, t_ends, vec,

@@ -139,14 +139,8 @@ def plate_velocity_cos(A, w, cos_phase):
 
 
 @njit(cache=True, fastmath=FMA, inline="always", error_model="numpy")
-def plate_height(A, phase):
-    """y_p = -A sin(phase) (mm)."""
-    return plate_height_sin(A, math.sin(phase))
-
-
-@njit(cache=True, fastmath=FMA, inline="always", error_model="numpy")
 def plate_height_sin(A, sin_phase):
-    """y_p (mm) from ``sin_phase = sin(phase)`` already computed."""
+    """y_p = -A sin(phase) (mm) from ``sin_phase = sin(phase)`` already computed."""
     return -A * sin_phase
 
 
