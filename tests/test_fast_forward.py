@@ -1,4 +1,4 @@
-"""Fast-forward of stick-release cycles (core.ensemble.fast_forward).
+"""Fast-forward of stick-release cycles (core.fast_forward).
 
 Bitwise mode: the skipped cycles repeat the last one bit for bit (translation in periods and
 tiles), so a run with fast-forward must give the same events, counts, jumps, displacements
@@ -20,7 +20,7 @@ import pytest
 from bbdyn import Params
 from bbdyn.core.billiard import billiard_event
 from bbdyn.core.billiard_tangent import billiard_tangent_event
-from bbdyn.core.cycle import release_map
+from bbdyn.core.fast_forward import release_map
 from bbdyn.core.status import RELEASE
 from bbdyn.core.tolerances import FF_DRIFT_TOL, FF_ENERGY_REL_TOL, SUM_ROUND_PER_TERM
 from bbdyn.ensemble import ensemble

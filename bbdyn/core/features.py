@@ -7,7 +7,7 @@ module holds the feature accumulators it calls at each collision in the window
 (``FeatureThresholds``) and the output arrays (``FeatureOut``).  The features are
 accumulated on the way, after a transient, so memory is proportional to the
 ensemble, not to the run.  The loop integrates energies and stuck time per block
-with ``core.ensemble.accumulate_interval`` (exact over flights and stuck
+with ``core.observables.accumulate_interval`` (exact over flights and stuck
 intervals); the positions at given sample times (for the Einstein D) are the
 loop's own displacement samples.
 

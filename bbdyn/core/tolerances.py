@@ -116,7 +116,7 @@ DEPARTURE_REL_TOL = 8.0 * EPS
 #: rounded in t - tbar).  Differences of MSD slopes below this are rounding.
 DOT_ROUND_PER_TERM = EPS
 
-# ---- fast-forward of periodic cycles (bbdyn.core.ensemble.fast_forward) ---------------------
+# ---- fast-forward of periodic cycles (bbdyn.core.fast_forward) ---------------------
 
 #: A running sum of n terms is exact to n * SUM_ROUND_PER_TERM times the sum of the
 #: absolute values of the terms (gamma_n with u = EPS / 2, doubled for margin).  The same
@@ -126,7 +126,7 @@ SUM_ROUND_PER_TERM = EPS
 
 #: Converged cycles (``converged_cycle``): a cycle whose releases stay within this distance
 #: (mm) of each other and whose proven drift ahead, ``|lam| |x_n - x_{n-p}| / (1 - |lam|)``
-#: with the release map's multiplier ``lam`` (``core.cycle``), is below it too is skipped
+#: with the release map's multiplier ``lam`` (``release_map``), is below it too is skipped
 #: although it never repeats bit for bit.  1e-12 mm is 1e-12 of a tile: no observable
 #: resolves it.
 FF_DRIFT_TOL = 1e-12

@@ -31,9 +31,9 @@ import numpy as np
 from numba import njit, prange
 
 from bbdyn.core.billiard import EventState, segment_gap, snap_to_wedge, tile_offset, wedge_reflect
-from bbdyn.core.ensemble import ACC_EX, ACC_EY, ACC_POT, accumulate_interval
 from bbdyn.core.floor import arc_root, floor_height_rel, from_normal_velocity, normal_velocity
-from bbdyn.core.observables import displacement, is_before, time_between
+from bbdyn.core.layout import ACC_EX, ACC_EY, ACC_POT
+from bbdyn.core.observables import accumulate_interval, displacement, is_before, time_between
 from bbdyn.core.plate import advance_phase, sin_cos
 from bbdyn.core.status import IMPACT, NON_FINITE, OK, ROOT_NOT_CONVERGED
 
