@@ -19,9 +19,9 @@ from bbdyn.core.flat import (
     flat_flight_evals,
     flat_gap,
     flat_run,
-    safe_step,
 )
 from bbdyn.core.plate import sin_cos, sin_minus_x
+from bbdyn.core.search import safe_step
 from bbdyn.core.status import IMPACT, OK, STICK
 from bbdyn.core.tolerances import CHATTER_REL_TOL, EPS, ROOT_MAX_STEPS, ROOT_STEP_REL
 

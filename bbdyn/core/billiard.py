@@ -45,7 +45,7 @@ the gap's evaluation; ``m`` is padded by a few ulp of M for rounding)
 
 up to the next tile crossing (for ``G_env``: for every s), with ``G, G'`` the
 values at ``tau_a`` (right derivative after a crossing).  ``cubic_safe_step``
-(``flat.py``) returns an ``s`` before which one of these lower bounds stays
+(``search.py``) returns an ``s`` before which one of these lower bounds stays
 positive, never shorter than the quadratic step with M.  A tile step is capped
 at the crossing, where the bound is restarted; an envelope step needs no cap.
 
@@ -69,17 +69,11 @@ from typing import NamedTuple
 
 from numba import njit
 
-from bbdyn.core.flat import (
-    cubic_safe_step,
-    flat_flight_evals,
-    flat_gap_phase,
-    safe_step,
-    stick_release,
-    time_above,
-)
+from bbdyn.core.flat import flat_flight_evals, flat_gap_phase, stick_release
 from bbdyn.core.floor import arc_root, bounce, bounce_at, floor_drop
 from bbdyn.core.fmath import clamp, fmax2, fmin2
 from bbdyn.core.plate import advance_phase, sin_cos
+from bbdyn.core.search import cubic_safe_step, safe_step, time_above
 from bbdyn.core.status import (
     BAD_STATE,
     IMPACT,
