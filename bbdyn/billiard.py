@@ -22,7 +22,7 @@ from typing import ClassVar
 
 import numpy as np
 
-from bbdyn.core.billiard import billiard_run
+from bbdyn.core.billiard import EventArrays, EventState, billiard_run
 from bbdyn.core.floor import arc_coordinates, xi_from_arc_length
 from bbdyn.core.status import IMPACT, RELEASE, STATUS_MESSAGES, STICK, raise_for_status
 from bbdyn.params import Params, check_params
@@ -191,7 +191,8 @@ def simulate(
     for name, value in zip(arrays, state0, strict=True):
         arrays[name][0] = value
     wall = time.perf_counter()
-    n_done, status = billiard_run(*state0, kp, *(a[1:] for a in arrays.values()))
+    out = EventArrays(*(a[1:] for a in arrays.values()))
+    _, n_done, status = billiard_run(EventState(*state0), kp, n - 1, out)
     wall = time.perf_counter() - wall
     raise_for_status(status, f"billiard simulate at f = {params.f} Hz, event {n_done + 1}")
     arrays = {k: v[: n_done + 1] for k, v in arrays.items()}

@@ -1,14 +1,15 @@
 """The billiard's continuous event loop in several source trees, from the same start states.
 
-Times ``bbdyn.core.billiard.billiard_run_count`` (the loop of ``bbdyn bench billiard``'s
-continuous row) at each frequency from one start state per frequency: the state after a
-transient of 20000 events from ``b2_billiard.CASE``'s start, computed by the *first* tree
-and handed to every tree, so that no tree's transient decides where its run starts (the
-attractors are intermittent: a run's cost depends on where it starts).  Each tree gets a
-worker process (``PYTHONPATH`` = the tree, its own numba cache); every round asks each
-worker once, the order reversed on every round.  Reported per tree and frequency: events
-per CPU-second of the worker (median over rounds), the ratio to the first tree, and
-whether the run ends in bitwise the state of the first tree's.
+Times ``bbdyn.core.billiard.billiard_run`` storing nothing (the loop of ``bbdyn bench
+billiard``'s continuous row; ``billiard_run_count`` in trees without ``EventState``) at each
+frequency from one start state per frequency: the state after a transient of 20000 events
+from ``b2_billiard.CASE``'s start, computed by the *first* tree and handed to every tree, so
+that no tree's transient decides where its run starts (the attractors are intermittent: a
+run's cost depends on where it starts).  Each tree gets a worker process (``PYTHONPATH`` =
+the tree, its own numba cache); every round asks each worker once, the order reversed on
+every round.  Reported per tree and frequency: events per CPU-second of the worker (median
+over rounds), the ratio to the first tree, and whether the run ends in bitwise the state of
+the first tree's.
 
 Usage::
 
@@ -37,8 +38,18 @@ def worker(events: int) -> None:
     frequency."""
     import time
 
-    from bbdyn.core.billiard import billiard_run_count
+    from bbdyn.core import billiard
     from bbdyn.core.status import OK
+
+    if hasattr(billiard, "EventState"):  # one run loop; count mode: out = None
+
+        def billiard_run_count(*args):
+            *state, kp, n = args
+            last, n_done, status = billiard.billiard_run(billiard.EventState(*state), kp, n, None)
+            return (*last, n_done, status)
+
+    else:
+        billiard_run_count = billiard.billiard_run_count
     from bbdyn.params import Params
     from bbdyn.scenes.b2_billiard import CASE
 

@@ -39,7 +39,7 @@ def absorbed(tile, xi, vx, vyrel, kind, R, threshold, stick, impact):
 def measure(f: float, n: int, n_events: int, thresholds) -> dict:
     """Shares of absorbed events at ``f`` (Hz) for each threshold (mm/s)."""
     from bbdyn import Params
-    from bbdyn.core.billiard import billiard_run
+    from bbdyn.core.billiard import EventArrays, EventState, billiard_run
     from bbdyn.core.status import IMPACT, OK, STICK
     from bbdyn.ensemble import ensemble
 
@@ -49,7 +49,7 @@ def measure(f: float, n: int, n_events: int, thresholds) -> dict:
     counts = np.zeros(len(thresholds), dtype=np.int64)
     for state in finals:
         out = [np.empty(n_events) for _ in range(6)] + [np.empty(n_events, dtype=np.int64)]
-        done, status = billiard_run(*state[:6], int(state[6]), kp, *out)
+        _, done, status = billiard_run(EventState(*state), kp, n_events, EventArrays(*out))
         if status != OK:
             raise RuntimeError(f"{f} Hz: kernel status {status}")
         rows = [a[:done] for a in out]

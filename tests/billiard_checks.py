@@ -5,7 +5,7 @@ import math
 import numpy as np
 from numba import njit
 
-from bbdyn.core.billiard import billiard_run, flight_gap
+from bbdyn.core.billiard import EventArrays, EventState, billiard_run, flight_gap
 from bbdyn.core.floor import floor_height_rel
 from bbdyn.core.status import IMPACT, RELEASE, STICK
 from bbdyn.core.tolerances import EPS, GAP_REL_TOL
@@ -54,7 +54,8 @@ def run_arrays(kp, state0, n_events):
     out = [np.empty(n) for _ in range(6)] + [np.empty(n, dtype=np.int64)]
     for a, v in zip(out, state0, strict=True):
         a[0] = v
-    n_done, status = billiard_run(*state0, kp, *(a[1:] for a in out))
+    rows = EventArrays(*(a[1:] for a in out))
+    _, n_done, status = billiard_run(EventState(*state0), kp, n_events, rows)
     return [a[: n_done + 1] for a in out], status
 
 

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from bbdyn import Params, cli
-from bbdyn.core.billiard import billiard_run, tiny_hop
+from bbdyn.core.billiard import EventArrays, EventState, billiard_run, tiny_hop
 from bbdyn.core.plate import sin_cos
 from bbdyn.core.status import IMPACT, OK, STICK
 from bbdyn.core.tolerances import DEPARTURE_REL_TOL, EPS, IMPACT_TIME_TOL
@@ -82,7 +82,7 @@ def test_profile_counts_agree_with_recorded_run():
     _, flights_, tiny, collisions, sticks, status = bench.flight_profile(state, kp, n)
     assert status == OK
     arrays = [np.empty(n) for _ in range(6)] + [np.empty(n, dtype=np.int64)]
-    n_done, status = billiard_run(*bench.CASE["start"], kp, *arrays)
+    _, n_done, status = billiard_run(EventState(*bench.CASE["start"]), kp, n, EventArrays(*arrays))
     assert status == OK and n_done == n
     kind = arrays[6]
     assert collisions == np.count_nonzero(kind != 2)
@@ -169,8 +169,11 @@ def test_committed_run_errors_and_costs():
     meta = _committed_billiard()
     period = 1.0 / meta["case"]["f"]
     exact = [r for r in meta["rows"] if r["method"] == "exact"]
-    assert all(r["max_time_error_s"] <= 16 * EPS * 2 * period for r in exact
-               if r["max_time_error_s"] is not None and math.isfinite(r["max_time_error_s"]))
+    assert all(
+        r["max_time_error_s"] <= 16 * EPS * 2 * period
+        for r in exact
+        if r["max_time_error_s"] is not None and math.isfinite(r["max_time_error_s"])
+    )
     for r in meta["rows"]:
         if r["method"] == "fixed_step":
             assert r["max_time_error_s"] < r["dt_min"] and r["wrong_contacts"] == 0
@@ -221,5 +224,8 @@ def test_compared_flights_start_from_the_fixed_attractor_state():
     # then every STATE_STRIDE-th event of the same run
     stride = bench.STATE_STRIDE
     arrays = [np.empty(2 * stride) for _ in range(6)] + [np.empty(2 * stride, dtype=np.int64)]
-    assert billiard_run(*state, kp, *arrays) == (2 * stride, OK)
+    assert billiard_run(EventState(*state), kp, 2 * stride, EventArrays(*arrays))[1:] == (
+        2 * stride,
+        OK,
+    )
     assert all(states[k][1] == arrays[i][stride] for i, k in enumerate(("periods", "phase")))

@@ -67,6 +67,7 @@ accelerating downward, the 50 Hz chatter hops) need few steps.
 import math
 from typing import NamedTuple
 
+import numpy as np
 from numba import njit
 
 from bbdyn.core.flat import flat_flight_evals, flat_gap_phase, stick_release
@@ -121,6 +122,18 @@ class EventState(NamedTuple):
     vx: float  # horizontal velocity (mm/s)
     vyrel: float  # vertical velocity relative to the floor (mm/s)
     kind: int  # IMPACT, STICK or RELEASE
+
+
+class EventArrays(NamedTuple):
+    """Arrays of a run's events, one row per event (``billiard_run``; float64, kind int64)."""
+
+    periods: np.ndarray
+    phase: np.ndarray
+    tile: np.ndarray
+    xi: np.ndarray
+    vx: np.ndarray
+    vyrel: np.ndarray
+    kind: np.ndarray
 
 
 class Trig(NamedTuple):
@@ -741,58 +754,37 @@ def billiard_event(periods, phase, tile, xi, vx, vyrel, kind, kp):
 
 
 @njit(cache=True, fastmath=FMA)
-def billiard_run(
-    periods,
-    phase,
-    tile,
-    xi,
-    vx,
-    vyrel,
-    kind,
-    kp,
-    out_periods,
-    out_phase,
-    out_tile,
-    out_xi,
-    out_vx,
-    out_vyrel,
-    out_kind,
-):
-    """Iterate ``billiard_event`` and write each event into the ``out_*`` arrays (in place).
+def billiard_run(state, kp, n_events, out):
+    """Iterate ``event_search`` (cubic steps) for ``n_events`` events from ``state``.
 
-    Returns ``(n_written, status)``; stops early at a failure or at ``STUCK_FOREVER``.
-    The loop carries each event's ``Trig`` (as the ensemble does), computed once per event.
+    Parameters
+    ----------
+    state : EventState
+        The start (taken as six floats and an integer ``kind``).
+    kp : KernelParams
+    n_events : int
+        Events to run.
+    out : EventArrays or None
+        Event ``i`` goes into row ``i`` of each array (in place; at least ``n_events``
+        rows); None stores nothing (benchmarks, transients).
+
+    Returns ``(state, n_done, status)``: the last event (at a failure, the failing step's
+    result), the events done and the status; the run stops early at a failure or at
+    ``STUCK_FOREVER``.  The loop carries each event's ``Trig`` (as the ensemble does).
     """
-    state = EventState(periods, phase, tile, xi, vx, vyrel, kind)
-    trig = event_trig(phase, xi, kp)
-    for i in range(out_phase.shape[0]):
-        state, status, trig = event_search(state, trig, kp, True)
-        if status != OK:
-            return i, status
-        out_periods[i] = state.periods
-        out_phase[i] = state.phase
-        out_tile[i] = state.tile
-        out_xi[i] = state.xi
-        out_vx[i] = state.vx
-        out_vyrel[i] = state.vyrel
-        out_kind[i] = state.kind
-    return out_phase.shape[0], OK
-
-
-@njit(cache=True, fastmath=FMA)
-def billiard_run_count(periods, phase, tile, xi, vx, vyrel, kind, kp, n_events):
-    """Iterate ``n_events`` events without storing them (benchmarks, transients).
-
-    Returns the final ``(periods, phase, tile, xi, vx, vyrel, kind, n_done, status)``;
-    the events of ``billiard_run``, with the same carried ``Trig``.
-    """
-    state = EventState(periods, phase, tile, xi, vx, vyrel, kind)
-    trig = event_trig(phase, xi, kp)
-    n_done, status = n_events, OK
+    p, ph, tile, xi, vx, vyrel, kind = state
+    ev = EventState(float(p), float(ph), float(tile), float(xi), float(vx), float(vyrel), int(kind))
+    trig = event_trig(ev.phase, ev.xi, kp)
     for i in range(n_events):
-        state, status, trig = event_search(state, trig, kp, True)
+        ev, status, trig = event_search(ev, trig, kp, True)
         if status != OK:
-            n_done = i
-            break
-    s = state
-    return s.periods, s.phase, s.tile, s.xi, s.vx, s.vyrel, s.kind, n_done, status
+            return ev, i, status
+        if out is not None:
+            out.periods[i] = ev.periods
+            out.phase[i] = ev.phase
+            out.tile[i] = ev.tile
+            out.xi[i] = ev.xi
+            out.vx[i] = ev.vx
+            out.vyrel[i] = ev.vyrel
+            out.kind[i] = ev.kind
+    return ev, n_events, OK

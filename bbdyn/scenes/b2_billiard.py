@@ -2,7 +2,7 @@
 
 Speed: collisions per second of the exact kernel (``bbdyn.core.billiard``), single
 thread, median over repeats after compilation: one flight at a time from a set of
-start states on the attractor, a continuous run (``billiard_run_count``, all event
+start states on the attractor, a continuous run (``billiard_run`` storing nothing, all event
 kinds), and the ensemble (``bbdyn.ensemble.ensemble``) on 2 threads.  A
 *collision* is an IMPACT or a STICK event (a STICK is the impact that starts a
 summed chattering sequence); RELEASE events are not collisions.
@@ -43,10 +43,10 @@ import numpy as np
 from numba import njit
 
 from bbdyn.core.billiard import (
+    EventArrays,
     EventState,
     billiard_flight,
     billiard_run,
-    billiard_run_count,
     event_search,
     event_trig,
     snap_to_wedge,
@@ -146,7 +146,8 @@ def attractor_states(params: Params, n_events: int) -> dict[str, np.ndarray]:
     total = n_events * STATE_STRIDE
     arrays = {k: np.empty(total) for k in names[:-1]}
     arrays["kind"] = np.empty(total, dtype=np.int64)
-    n_done, status = billiard_run(*CASE["attractor"], kp, *arrays.values())
+    start = EventState(*CASE["attractor"])
+    _, n_done, status = billiard_run(start, kp, total, EventArrays(*arrays.values()))
     raise_for_status(status, "billiard benchmark states")
     return {k: v[:n_done:STATE_STRIDE] for k, v in arrays.items()}
 
@@ -178,10 +179,9 @@ def exact_one_step(starts, kp, out_tau, out_k, out_xi, out_vx, out_vy):
 
 @njit(cache=True)
 def _continuous(state, kp, n_events):
-    """Status of ``n_events`` events of ``billiard_run_count`` from ``state`` (for timing)."""
-    return billiard_run_count(
-        state[0], state[1], state[2], state[3], state[4], state[5], int(state[6]), kp, n_events
-    )[8]
+    """Status of ``n_events`` events of ``billiard_run`` from ``state`` (for timing)."""
+    start = EventState(state[0], state[1], state[2], state[3], state[4], state[5], state[6])
+    return billiard_run(start, kp, n_events, None)[2]
 
 
 @njit(cache=True)
@@ -405,9 +405,9 @@ def _profile(settings) -> list[dict[str, Any]]:
     n_events = int(settings["profile_events"])
     for f in settings["profile_f"]:
         kp = Params(f=f).kernel()
-        out = billiard_run_count(*CASE["start"], kp, CASE["transient"])
-        raise_for_status(out[8], f"profile transient at {f} Hz")
-        state = np.array(out[:7], dtype=float)
+        last, _, status = billiard_run(EventState(*CASE["start"]), kp, CASE["transient"], None)
+        raise_for_status(status, f"profile transient at {f} Hz")
+        state = np.array(last, dtype=float)
         steps, flights, tiny, collisions, sticks, status = flight_profile(state, kp, n_events)
         raise_for_status(status, f"profile at {f} Hz")
         timing = measure(
