@@ -43,7 +43,7 @@ import numpy as np
 from numba import njit, prange
 
 from bbdyn.core.billiard import EventState, event_search, event_trig
-from bbdyn.core.fast_forward import fast_forward
+from bbdyn.core.fast_forward import Particle, fast_forward
 from bbdyn.core.features import Collision, block_of, feature_collision, feature_finish
 from bbdyn.core.floor import arc_root, normal_velocity, xi_from_arc_length
 from bbdyn.core.layout import (
@@ -250,6 +250,7 @@ def particle_loop(carry, i, budget, kp, times, out, obs, th):
     n_samples = sample_periods.shape[0]
     status = OK
     n_done = 0
+    particle = Particle(carry, i, kp, times, window, split, flags, out)  # for fast_forward
     trig = event_trig(phase, xi, kp)  # then carried from event to event
     while True:
         if n_done == budget:
@@ -293,9 +294,7 @@ def particle_loop(carry, i, budget, kp, times, out, obs, th):
         trig = nxt_trig
         if kind == RELEASE:
             if do_ff:
-                K, dP, dl, n_rel, k = fast_forward(
-                    carry, i, n_rel, nxt, trig, k, times, window, split, kp, flags, out
-                )
+                K, dP, dl, n_rel, k = fast_forward(particle, n_rel, nxt, trig, k)
                 periods += K * dP
                 tile += K * dl
                 trap += K * dl

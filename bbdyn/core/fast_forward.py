@@ -45,6 +45,7 @@ proven bound on how far the releases still drift.
 """
 
 import math
+from typing import NamedTuple
 
 import numpy as np
 from numba import njit
@@ -74,6 +75,19 @@ from bbdyn.core.tolerances import FF_DRIFT_TOL, FF_ENERGY_REL_TOL, FMA
 #: Distance (mm) within which a remembered multiplier decides that a converged-cycle bound
 #: is hopeless (``converged_cycle``; an economy only: no bound relies on it).
 FF_LAM_NEAR = 1e-9
+
+
+class Particle(NamedTuple):
+    """One particle's run as the fast-forward sees it (built once by ``particle_loop``)."""
+
+    carry: tuple  # bbdyn.ensemble.Carry: the loop state and the rings of releases
+    i: int  # the particle (its row of carry and out)
+    kp: tuple  # KernelParams
+    times: tuple  # RunTimes: the end and the sample times
+    window: tuple  # Window: the energy window (one block)
+    split: float  # end of the window's first part (whole periods)
+    flags: int  # Observables.flags
+    out: tuple  # EnsembleOut
 
 
 @njit(cache=True, fastmath=FMA)
@@ -245,7 +259,7 @@ def cycles_before(periods, phase, dP, b_p, b_ph):
 
 
 @njit(cache=True, fastmath=FMA)
-def cycle_samples(carry, i, ev, trig, lag, n_cycle, dP, dl, K, k, times, kp, disp):
+def cycle_samples(particle, ev, trig, lag, n_cycle, dP, dl, K, k):
     """Positions at the sample times ``k, k + 1, ...`` inside the ``K`` cycles skipped from
     the release ``ev`` (see ``fast_forward``), into ``disp``; returns ``(k, ok)``, ``k`` the
     first sample after them.
@@ -258,6 +272,8 @@ def cycle_samples(carry, i, ev, trig, lag, n_cycle, dP, dl, K, k, times, kp, dis
     again makes ``n_cycle`` events and ends at the ``lag``-th release ``dP`` periods and ``dl``
     tiles on, at the same phase.
     """
+    carry, i, kp, times = particle.carry, particle.i, particle.kp, particle.times
+    disp = particle.out.displacement[i]
     tile0, xi0 = carry.state[i, C_TILE0], carry.state[i, C_XI0]
     sample_periods, sample_phase = times.sample_periods, times.sample_phase
     end_p = ev.periods + K * dP
@@ -308,13 +324,14 @@ def cycle_samples(carry, i, ev, trig, lag, n_cycle, dP, dl, K, k, times, kp, dis
 
 
 @njit(cache=True, fastmath=FMA)
-def skip_cycles(carry, i, n_rel, lag, ev, trig, zone, k, times, window, split, kp, flags, out):
+def skip_cycles(particle, n_rel, lag, ev, trig, zone, k):
     """Skip as many copies of the cycle of the last ``lag`` releases (of ``n_rel``) as fit
     before the end in ``zone`` (see ``fast_forward``), the positions at the sample times
     inside them from ``cycle_samples`` (or, where it fails, only those before the next sample
     time); returns ``(K, dP, dl, k)``, ``K = 0`` if none fits, ``k`` the next sample.  The
     cycle's releases in the ring move with the particle to the last skipped copy: periods,
     tiles, integrals and counts by what the skip adds to them."""
+    carry, i, kp, times, window, split, flags, out = particle
     rel, rel_acc, rel_cnt = carry.rel[i], carry.rel_acc[i], carry.rel_cnt[i]
     acc, counts = out.blocks[i], out.counts[i]
     energy = (flags & OBS_ENERGY) != 0
@@ -334,9 +351,7 @@ def skip_cycles(carry, i, n_rel, lag, ev, trig, zone, k, times, window, split, k
         b_p, b_ph = nxt_zone, 0.0
     K = cycles_before(periods, phase, dP, b_p, b_ph)
     if K > 0 and (flags & OBS_DISPLACEMENT) != 0:
-        k_new, ok = cycle_samples(
-            carry, i, ev, trig, lag, n_cycle, dP, dl, K, k, times, kp, out.displacement[i]
-        )
+        k_new, ok = cycle_samples(particle, ev, trig, lag, n_cycle, dP, dl, K, k)
         if ok:
             k = k_new
         elif k < times.sample_periods.shape[0]:
@@ -376,20 +391,22 @@ def skip_cycles(carry, i, n_rel, lag, ev, trig, zone, k, times, window, split, k
 
 
 @njit(cache=True, fastmath=FMA, inline="always")
-def fast_forward(carry, i, n_rel, ev, trig, k, times, window, split, kp, flags, out):
+def fast_forward(particle, n_rel, ev, trig, k):
     """Skip whole stick-release cycles of particle ``i`` once its releases repeat.
 
     Why the skipped cycles are exact, and what is skipped: the module docstring.
 
     Parameters
     ----------
-    carry : bbdyn.ensemble.Carry
-        Row ``i`` of its rings (updated in place): ``rel`` (FF_LAGS, 5), the releases
-        ``phase, xi, periods, tile, zone`` (zone 0, 1, 2: before, in, after the window);
-        ``rel_acc`` (FF_LAGS, 4) and ``rel_cnt``
-        (FF_LAGS, CNT_WIDTH), the particle's ``blocks[0, :4]`` and ``counts`` at those releases.
-    i : int
-        The particle.
+    particle : Particle
+        The particle's run: ``carry`` (row ``i`` of its rings, updated in place: ``rel``
+        (FF_LAGS, 5), the releases ``phase, xi, periods, tile, zone`` (zone 0, 1, 2: before,
+        in, after the window); ``rel_acc`` (FF_LAGS, 4) and ``rel_cnt`` (FF_LAGS,
+        CNT_WIDTH), the particle's ``blocks[0, :4]`` and ``counts`` at those releases);
+        ``times``, ``window``, ``split``; ``flags`` (energy integrals ``OBS_ENERGY``,
+        positions ``OBS_DISPLACEMENT``, converged cycles ``OBS_FF_CONVERGED``); ``out``, whose
+        row ``i`` of ``blocks`` and ``counts`` is advanced by the skipped cycles and its
+        ``displacement`` written at the sample times inside them.
     n_rel : int
         Releases pushed so far.
     ev : EventState
@@ -398,26 +415,13 @@ def fast_forward(carry, i, n_rel, ev, trig, k, times, window, split, kp, flags, 
         Sine and cosine of its phase and its arc root (mm), as the loop carries them.
     k : int
         The next sample time's index.
-    times : RunTimes
-        The end and the sample times.
-    window : Window
-        The window (one block).
-    split : float
-        End of the first part of the window (whole periods, ``Observables.split_periods``).
-    kp : KernelParams
-    flags : int
-        ``Observables.flags``: energy integrals (``OBS_ENERGY``), positions
-        (``OBS_DISPLACEMENT``), and whether converged cycles are skipped as well as bitwise
-        repeats (``OBS_FF_CONVERGED``).
-    out : EnsembleOut
-        Row ``i`` of ``blocks`` and ``counts`` is advanced by the skipped cycles, and its
-        ``displacement`` written at the sample times inside them.
 
     Returns
     -------
     (K, dP, dl, n_rel, k) : whole cycles skipped (0: none), cycle length (periods), tile
     shift, the new ring count and the next sample index.
     """
+    carry, i, kp, times, window, split, flags, out = particle
     rel, rel_acc, rel_cnt = carry.rel[i], carry.rel_acc[i], carry.rel_cnt[i]
     acc, counts = out.blocks[i], out.counts[i]
     periods, phase, tile, xi = ev.periods, ev.phase, ev.tile, ev.xi
@@ -436,9 +440,7 @@ def fast_forward(carry, i, n_rel, ev, trig, k, times, window, split, kp, flags, 
             lag = converged_cycle(carry, i, n_rel, ev, acc, counts, kp)
     K, dP, dl = 0, 0.0, 0.0
     if lag > 0:
-        K, dP, dl, k = skip_cycles(
-            carry, i, n_rel, lag, ev, trig, zone, k, times, window, split, kp, flags, out
-        )
+        K, dP, dl, k = skip_cycles(particle, n_rel, lag, ev, trig, zone, k)
     if K > 0:
         for p in range(lag + 1, min(n_rel, FF_LAGS) + 1):
             rel[(n_rel - p) % FF_LAGS, 1] = math.inf  # forgotten: older than the cycle
