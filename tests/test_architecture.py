@@ -54,6 +54,47 @@ BENCHMARK_SCENES = ("bbdyn.scenes.b2_flat", "bbdyn.scenes.b2_billiard")
 #: Third-party packages the core may use.
 # typing: NamedTuple buffers; numba_cuda: the CUDA target of the same functions (core.targets)
 CORE_THIRD_PARTY = {"math", "numpy", "numba", "numba_cuda", "typing"}
+#: The core's modules (docs/architecture.md, "The core's modules") and the core modules each
+#: may import besides ``tolerances``, ``status`` and ``fmath``: the event step's ladder at
+#: the bottom, the tangent maps and the ensemble's loop above it.
+CORE_ROOMS = {
+    "bbdyn.core": set(),
+    "bbdyn.core.tolerances": set(),
+    "bbdyn.core.status": set(),
+    "bbdyn.core.fmath": set(),
+    "bbdyn.core.targets": set(),
+    "bbdyn.core.layout": set(),
+    "bbdyn.core.plate": set(),
+    "bbdyn.core.floor": set(),
+    "bbdyn.core.taylor": {"plate"},
+    "bbdyn.core.search": set(),
+    "bbdyn.core.flat": {"plate", "search", "taylor"},
+    "bbdyn.core.billiard": {"plate", "floor", "search", "taylor", "flat"},
+    "bbdyn.core.flat_jacobian": {"plate", "flat"},
+    "bbdyn.core.tangent": {"plate", "flat", "flat_jacobian"},
+    "bbdyn.core.billiard_tangent": {"plate", "floor", "flat", "billiard"},
+    "bbdyn.core.highbounce": {"plate"},
+    "bbdyn.core.features": {"plate"},
+    "bbdyn.core.observables": {"plate", "floor", "layout", "features"},
+    "bbdyn.core.fast_forward": {"billiard", "billiard_tangent", "layout", "observables"},
+    "bbdyn.core.ensemble": {
+        "floor",
+        "billiard",
+        "layout",
+        "observables",
+        "features",
+        "fast_forward",
+    },
+}
+#: Core functions with more than MAX_CORE_PARAMETERS parameters, to be narrowed.
+WIDE_CORE_FUNCTIONS = {
+    "gap_series",
+    "taylor_finish",
+    "flat_tangent_run",
+    "billiard_tangent_event",
+    "billiard_tangent_run",
+}
+MAX_CORE_PARAMETERS = 10
 
 
 def module_name(path: Path) -> str:
@@ -115,6 +156,29 @@ def test_core_imports_only_numpy_math_typing_numba_and_core():
             assert top in CORE_THIRD_PARTY | {"bbdyn"}, f"{module} imports {name}"
             if top == "bbdyn":
                 assert layer_of(name) == "core", f"{module} imports {name}"
+
+
+def test_each_core_module_imports_only_its_rooms():
+    core = [m for m in MODULES if layer_of(m) == "core"]
+    assert set(core) == set(CORE_ROOMS), "add the module to CORE_ROOMS and docs/architecture.md"
+    always = {"tolerances", "status", "fmath"}
+    for module in core:
+        deps = {d.rpartition(".")[2] for d in internal_graph()[module]}
+        extra = deps - CORE_ROOMS[module] - always
+        assert not extra, f"{module} imports {sorted(extra)}"
+    users = [m for m in MODULES if any(n.startswith("numba_cuda") for n in imports(m))]
+    assert set(users) <= {"bbdyn.core.targets"}, users
+
+
+def test_core_signatures_are_narrow():
+    wide = set()
+    for module, path in MODULES.items():
+        if layer_of(module) != "core":
+            continue
+        for node in ast.walk(ast.parse(path.read_text())):
+            if isinstance(node, ast.FunctionDef) and len(node.args.args) > MAX_CORE_PARAMETERS:
+                wide.add(node.name)
+    assert wide == WIDE_CORE_FUNCTIONS
 
 
 def test_each_layer_imports_only_the_layers_below_it():
