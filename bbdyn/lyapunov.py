@@ -411,7 +411,7 @@ def billiard_lyapunov_from(
         particle if a kernel fails.  The tangent vector starts as ``(1, 1, 1, 1) / 2`` in
         the section coordinates ``(theta, x, vx, vyrel)`` (rad, mm, mm/s, mm/s).
     """
-    from bbdyn.core.billiard_tangent import billiard_tangent_run
+    from bbdyn.core.billiard_tangent import TangentWindows, billiard_tangent_run
 
     t = _check_positive("t", t, "s")
     transient = float(transient)
@@ -434,16 +434,17 @@ def billiard_lyapunov_from(
     for i in range(n):
         state = (*states[i, :6], int(states[i, 6]))
         vec = np.full(4, 0.5)
-        scratch = (np.zeros(1), np.zeros(1, np.int64), np.zeros(1, np.int64), np.zeros(1))
+        scratch = TangentWindows(
+            np.zeros(1), np.zeros(1, np.int64), np.zeros(1, np.int64), np.zeros(1)
+        )
         st = OK
         if t0 > 0:
-            *state, st = billiard_tangent_run(*state, kp, np.array([t0]), vec, *scratch)
+            state, st = billiard_tangent_run(state, kp, np.array([t0]), vec, scratch)
         ends = np.full(windows, np.nan)
         first = state[0] + state[1] / TWO_PI
         if st == OK:
-            *_, st = billiard_tangent_run(
-                *state, kp, t_ends, vec, log_growth[i], collisions[i], collapses[i], ends
-            )
+            out = TangentWindows(log_growth[i], collisions[i], collapses[i], ends)
+            _, st = billiard_tangent_run(state, kp, t_ends, vec, out)
         first = min(max(first, t0), t_ends[0])  # stuck for good in the transient: from t0
         status[i] = st
         if st not in (OK, STUCK_FOREVER):

@@ -92,7 +92,6 @@ WIDE_CORE_FUNCTIONS = {
     "taylor_finish",
     "flat_tangent_run",
     "billiard_tangent_event",
-    "billiard_tangent_run",
 }
 MAX_CORE_PARAMETERS = 10
 

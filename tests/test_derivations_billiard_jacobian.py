@@ -17,7 +17,11 @@ import sympy as sp
 from derivation_loader import load_derivation
 
 from bbdyn import Params
-from bbdyn.core.billiard_tangent import billiard_tangent_event, billiard_tangent_run
+from bbdyn.core.billiard_tangent import (
+    TangentWindows,
+    billiard_tangent_event,
+    billiard_tangent_run,
+)
 from bbdyn.core.status import IMPACT, OK
 from bbdyn.tongues import k1_orbit
 
@@ -114,7 +118,8 @@ def test_largest_exponent_along_the_top_orbit_is_log_mu(f, k):
     log, t_last = np.zeros(1), np.zeros(1)
     collisions, collapses = np.zeros(1, np.int64), np.zeros(1, np.int64)
     end = np.array([n * k + 0.5])  # periods
-    *_, status = billiard_tangent_run(*state, kp, end, vec, log, collisions, collapses, t_last)
+    out = TangentWindows(log, collisions, collapses, t_last)
+    _, status = billiard_tangent_run(state, kp, end, vec, out)
     assert status == OK and collisions[0] == n and collapses[0] == 0
     cond = np.linalg.cond(np.linalg.eig(J)[1])
     bound = 2 * math.log(cond) / n

@@ -315,7 +315,7 @@ def billiard_doc_rows(groups) -> list[str]:
 def billiard_orbit_rows() -> list[str]:
     """The top-orbit rows of docs/lyapunov.md: closed form against a tangent run of 4000
     collisions started on the orbit."""
-    from bbdyn.core.billiard_tangent import billiard_tangent_run
+    from bbdyn.core.billiard_tangent import TangentWindows, billiard_tangent_run
     from bbdyn.lyapunov import top_orbit_exponent
 
     rows = []
@@ -326,8 +326,8 @@ def billiard_orbit_rows() -> list[str]:
         vec, log, t_last = np.full(4, 0.5), np.zeros(1), np.zeros(1)
         collisions, collapses = np.zeros(1, np.int64), np.zeros(1, np.int64)
         state = (0.0, o.phase_stable, 0.0, 0.0, 0.0, o.vrel, IMPACT)
-        billiard_tangent_run(*state, p.kernel(), np.array([n * k + 0.5]), vec, log,
-                             collisions, collapses, t_last)  # fmt: skip
+        out = TangentWindows(log, collisions, collapses, t_last)
+        billiard_tangent_run(state, p.kernel(), np.array([n * k + 0.5]), vec, out)
         duration = (t_last[0] - o.phase_stable / (2 * math.pi)) / f
         lam = top_orbit_exponent(p, k)
         rows.append(

@@ -88,6 +88,7 @@ floor; the largest exponent stays finite unless the particle sticks at a wedge.
 """
 
 import math
+from typing import NamedTuple
 
 import numpy as np
 from numba import njit
@@ -345,38 +346,44 @@ def billiard_tangent_event(periods, phase, tile, xi, vx, vyrel, kind, kp, J, W, 
     return out
 
 
+class TangentWindows(NamedTuple):
+    """Output arrays of ``billiard_tangent_run``, one entry per window."""
+
+    log: np.ndarray  # sum of log |J v| / |v|
+    collisions: np.ndarray  # int64
+    collapses: np.ndarray  # int64
+    time: np.ndarray  # driving periods of the window's last event
+
+
 @njit(cache=True, fastmath=FMA, error_model="numpy")
-def billiard_tangent_run(
-    periods, phase, tile, xi, vx, vyrel, kind, kp, t_ends, vec,
-    out_log, out_collisions, out_collapses, out_time,
-):  # fmt: skip
+def billiard_tangent_run(state, kp, t_ends, vec, out):
     """Advance one particle through events with one tangent vector, window by window.
 
     Parameters
     ----------
-    periods, phase, tile, xi, vx, vyrel, kind
-        Current event state.
+    state : tuple
+        Current event state ``(periods, phase, tile, xi, vx, vyrel, kind)``.
     kp : KernelParams
     t_ends : ndarray (n_windows,)
         Ends of the windows in driving periods, increasing (as ``core.tangent.flat_tangent_run``).
     vec : ndarray (4,)
         Unit tangent vector in section coordinates (in/out).
-    out_log : ndarray (n_windows,)
-        Sum of ``log |J v| / |v|`` over the events of each window (added to).
-    out_collisions, out_collapses : ndarray (n_windows,) int64
-        Collisions (IMPACT and STICK events) and collapses (sticks at a wedge, where
-        ``J v = 0``; the vector restarts along the floor, ``(0, 1, 0, 0)``), added to.
-    out_time : ndarray (n_windows,)
-        Time (driving periods) of the last event of each window (overwritten).
+    out : TangentWindows
+        Per window (added to): ``log``, the sum of ``log |J v| / |v|`` over its events;
+        ``collisions`` (IMPACT and STICK events) and ``collapses`` (sticks at a wedge, where
+        ``J v = 0``; the vector restarts along the floor, ``(0, 1, 0, 0)``); ``time`` (driving
+        periods) of its last event (overwritten).
 
     Returns
     -------
-    (periods, phase, tile, xi, vx, vyrel, kind, status)
+    (state, status)
         The last event; ``status`` ``OK``, ``STUCK_FOREVER`` (Gamma <= 1; the window it
         sticks in ends at its end: it rests there), ``NON_FINITE`` (a non-finite tangent
         vector: a grazing contact, whose event map has no derivative) or a failure of
         the event kernel.
     """
+    periods, phase, tile, xi, vx, vyrel, kind = state
+    out_log, out_collisions, out_collapses, out_time = out
     J = np.empty((4, 4))
     W = np.empty((4, 4))
     T = np.empty((4, 4))
@@ -418,4 +425,4 @@ def billiard_tangent_run(
         out_time[j] = t
         if t > t_ends[j]:
             j += 1
-    return periods, phase, tile, xi, vx, vyrel, kind, status
+    return (periods, phase, tile, xi, vx, vyrel, kind), status
