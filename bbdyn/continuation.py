@@ -44,7 +44,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from bbdyn.core.flat import flat_event, flat_run
+from bbdyn.core.flat import FlatArrays, FlatState, flat_event, flat_run
 from bbdyn.core.flat_jacobian import flat_map_jacobian
 from bbdyn.core.plate import TWO_PI, sin_minus_x
 from bbdyn.core.status import IMPACT, NON_FINITE, OK, STATUS_MESSAGES
@@ -706,7 +706,8 @@ def bifurcation_diagram(gammas, alpha: float, transient: int, record: int) -> np
     n = transient + record
     for i, gamma in enumerate(gammas):
         out = [np.zeros(n), np.zeros(n), np.zeros(n), np.zeros(n, dtype=np.int64)]
-        done, status = flat_run(*state, unit_kernel(float(gamma), alpha), *out)
+        kp = unit_kernel(float(gamma), alpha)
+        _, done, status = flat_run(FlatState(*state), kp, n, FlatArrays(*out))
         if status != OK or done < n:
             continue
         kinds = out[3][transient:]

@@ -13,7 +13,7 @@ import time
 
 import numpy as np
 
-from bbdyn.core.flat import flat_run
+from bbdyn.core.flat import FlatArrays, FlatState, flat_run
 from bbdyn.core.status import (
     EVENT_NAMES,
     IMPACT,
@@ -218,7 +218,8 @@ def _run(kp, state, n_events):
     vrel = np.empty(n_events + 1)
     kind = np.empty(n_events + 1, dtype=np.int64)
     periods[0], phase[0], vrel[0], kind[0] = state
-    n_done, status = flat_run(*state, kp, periods[1:], phase[1:], vrel[1:], kind[1:])
+    out = FlatArrays(periods[1:], phase[1:], vrel[1:], kind[1:])
+    _, n_done, status = flat_run(FlatState(*state), kp, n_events, out)
     raise_for_status(status, "simulate_flat")
     n = n_done + 1
     arrays = {"periods": periods[:n], "phase": phase[:n], "vrel": vrel[:n], "kind": kind[:n]}

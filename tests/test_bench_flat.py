@@ -8,7 +8,7 @@ import pytest
 from scipy.optimize import brentq
 
 from bbdyn import cli
-from bbdyn.core.flat import flat_flight, flat_flight_tol, flat_run, flat_run_count
+from bbdyn.core.flat import FlatArrays, FlatState, flat_flight, flat_flight_tol, flat_run
 from bbdyn.core.status import IMPACT, OK
 from bbdyn.core.tolerances import EPS, ROOT_STEP_REL
 from bbdyn.reference.fixed_step import fixed_step_one_step, fixed_step_run
@@ -31,11 +31,11 @@ STEP_REL_IDS = ["1e-4", "1e-7", "1e-10", "1e-13", "default"]
 def orbit():
     """Start states (phase, vrel) on the chaotic benchmark orbit, and the exact flights."""
     kp = case_params().kernel()
-    periods, phase, vrel, kind, _, status = flat_run_count(0.0, 0.3, 50.0, IMPACT, kp, 10_000)
+    last, _, status = flat_run(FlatState(0.0, 0.3, 50.0, IMPACT), kp, 10_000, None)
     assert status == OK
     n = 200
     out = [np.empty(n) for _ in range(3)] + [np.empty(n, dtype=np.int64)]
-    n_done, status = flat_run(periods, phase, vrel, kind, kp, *out)
+    _, n_done, status = flat_run(last, kp, n, FlatArrays(*out))
     assert status == OK and n_done == n
     keep = out[3] == IMPACT  # start only from impacts (a release starts with vrel = 0)
     phases, vrels = out[1][keep], out[2][keep]

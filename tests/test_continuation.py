@@ -13,7 +13,7 @@ from bbdyn.continuation import (
     orbit_chain,
     unit_kernel,
 )
-from bbdyn.core.flat import flat_run
+from bbdyn.core.flat import FlatArrays, FlatState, flat_run
 from bbdyn.core.plate import TWO_PI
 from bbdyn.core.status import IMPACT, OK
 from bbdyn.tongues import (
@@ -57,7 +57,7 @@ def _iterate(theta, V, gamma, alpha, n):
     """The last impacts (phase, V) of n iterates of the simulator's exact map."""
     kp = unit_kernel(gamma, alpha)
     out = [np.zeros(n) for _ in range(3)] + [np.zeros(n, dtype=np.int64)]
-    n_done, status = flat_run(0.0, theta, V, IMPACT, kp, *out)
+    _, n_done, status = flat_run(FlatState(0.0, theta, V, IMPACT), kp, n, FlatArrays(*out))
     assert status == OK and n_done == n and np.all(out[3] == IMPACT)
     return out[1], out[2]
 

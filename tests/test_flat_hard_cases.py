@@ -8,7 +8,7 @@ import pytest
 from billiard_checks import STICK_PHASES, release_window_phases, stick_phase
 
 from bbdyn import Params
-from bbdyn.core.flat import flat_event, flat_flight, flat_run
+from bbdyn.core.flat import FlatArrays, FlatState, flat_event, flat_flight, flat_run
 from bbdyn.core.status import IMPACT, OK, RELEASE, STICK, STUCK_FOREVER
 from bbdyn.core.tolerances import (
     CHATTER_REL_TOL,
@@ -275,7 +275,7 @@ def _check_invariants(f, n):
     p = Params(f=f)
     kp = p.kernel()
     out = (np.empty(n), np.empty(n), np.empty(n), np.empty(n, np.int64))
-    n_done, status = flat_run(0.0, 0.5, 100.0, IMPACT, kp, *out)
+    _, n_done, status = flat_run(FlatState(0.0, 0.5, 100.0, IMPACT), kp, n, FlatArrays(*out))
     assert (n_done, status) == (n, OK)
     periods, phase, vrel, kind = out
     for arr in (periods, phase, vrel):

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from bbdyn import Params
-from bbdyn.core.flat import flat_run
+from bbdyn.core.flat import FlatArrays, FlatState, flat_run
 from bbdyn.core.status import IMPACT, OK
 from bbdyn.core.tolerances import EPS, IMPACT_TIME_TOL
 from bbdyn.reference.flat_mpmath import reference_impacts
@@ -14,7 +14,7 @@ from bbdyn.reference.flat_mpmath import reference_impacts
 
 def _kernel_run(kp, phase0, vrel0, n):
     out = (np.empty(n), np.empty(n), np.empty(n), np.empty(n, np.int64))
-    n_done, status = flat_run(0.0, phase0, vrel0, IMPACT, kp, *out)
+    _, n_done, status = flat_run(FlatState(0.0, phase0, vrel0, IMPACT), kp, n, FlatArrays(*out))
     assert (n_done, status) == (n, OK)
     return out
 

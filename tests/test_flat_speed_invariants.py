@@ -15,6 +15,8 @@ from numba import njit
 
 from bbdyn import Params
 from bbdyn.core.flat import (
+    FlatArrays,
+    FlatState,
     chatter_time,
     flat_flight_evals,
     flat_gap,
@@ -78,7 +80,8 @@ def _impact_states(f, alpha, n=3000):
     """Post-impact states (phase, vrel) along a long run, after a transient."""
     kp = Params(f=f, alpha=alpha).kernel()
     out = (np.empty(n), np.empty(n), np.empty(n), np.empty(n, np.int64))
-    assert flat_run(0.0, 0.5, 100.0, IMPACT, kp, *out) == (n, OK)
+    start = FlatState(0.0, 0.5, 100.0, IMPACT)
+    assert flat_run(start, kp, n, FlatArrays(*out))[1:] == (n, OK)
     keep = out[3][100:] == IMPACT
     return kp, out[1][100:][keep], out[2][100:][keep]
 
@@ -144,5 +147,6 @@ def test_chattering_still_ends_in_sticks():
     kp, _, _ = _impact_states(58.0, 0.5)
     n = 2000
     out = (np.empty(n), np.empty(n), np.empty(n), np.empty(n, np.int64))
-    assert flat_run(0.0, 0.5, 100.0, IMPACT, kp, *out) == (n, OK)
+    start = FlatState(0.0, 0.5, 100.0, IMPACT)
+    assert flat_run(start, kp, n, FlatArrays(*out))[1:] == (n, OK)
     assert np.count_nonzero(out[3] == STICK) > 10

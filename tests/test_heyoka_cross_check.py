@@ -22,7 +22,7 @@ import pytest
 from scipy.optimize import brentq
 
 from bbdyn.core.billiard import billiard_flight
-from bbdyn.core.flat import flat_flight, flat_run
+from bbdyn.core.flat import FlatArrays, FlatState, flat_flight, flat_run
 from bbdyn.core.status import IMPACT, OK, STICK
 from bbdyn.core.tolerances import EPS, ROOT_STEP_REL
 from bbdyn.params import Params
@@ -83,7 +83,7 @@ def test_flat_ball_impact_times_agree_on_the_b2_attractor():
     kp = params.kernel()
     arrays = [np.empty(N_FLIGHTS) for _ in range(3)] + [np.empty(N_FLIGHTS, dtype=np.int64)]
     start = (0.0, b2_flat.CASE["phase0"], b2_flat.CASE["vrel0"], IMPACT)
-    n_done, status = flat_run(*start, kp, *arrays)
+    _, n_done, status = flat_run(FlatState(*start), kp, N_FLIGHTS, FlatArrays(*arrays))
     assert status == OK and n_done == N_FLIGHTS
     impacts = arrays[3] == IMPACT
     assert impacts.sum() >= N_FLIGHTS - 5  # the window is chaotic, nearly stick-free

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from bbdyn import Params
-from bbdyn.core.flat import flat_run
+from bbdyn.core.flat import FlatArrays, FlatState, flat_run
 from bbdyn.core.status import IMPACT, OK
 from bbdyn.highbounce import flight_phase_error, hb_gamma_hi, hb_jacobian, hb_run, tongue_errors
 from bbdyn.tongues import k1_cos_phase, k1_orbit, params_at_gamma, tongue_gamma_hi, tongue_gamma_lo
@@ -77,7 +77,8 @@ def test_A_to_zero_at_fixed_gamma_is_not_a_limit_the_exact_map_only_depends_on_g
     for A in (0.1, 1e-3):
         p = params_at_gamma(1.3, alpha=0.5, A=A)
         out = (np.empty(300), np.empty(300), np.empty(300), np.empty(300, np.int64))
-        n, status = flat_run(0.0, 0.3, 2.7 * p.g / p.w, IMPACT, p.kernel(), *out)
+        start = FlatState(0.0, 0.3, 2.7 * p.g / p.w, IMPACT)
+        _, n, status = flat_run(start, p.kernel(), 300, FlatArrays(*out))
         assert status == OK and n == 300
         runs.append((out[0] + out[1] / (2 * math.pi), out[2] * p.w / p.g))
     # a chaotic transient amplifies rounding, so compare the first 30 impacts

@@ -11,7 +11,7 @@ import math
 import numpy as np
 import pytest
 
-from bbdyn.core.flat import flat_run
+from bbdyn.core.flat import FlatArrays, FlatState, flat_run
 from bbdyn.core.plate import TWO_PI
 from bbdyn.core.status import IMPACT, OK, STICK, STUCK_FOREVER
 from bbdyn.core.tangent import flat_tangent_run
@@ -82,7 +82,8 @@ def test_exponents_of_a_period_2_orbit_are_the_logs_of_its_multipliers_over_two(
     p = params_at_gamma(gamma, alpha=ALPHA)
     one = k1_orbit_numeric(1, gamma, ALPHA)
     out = (np.empty(3000), np.empty(3000), np.empty(3000), np.empty(3000, np.int64))
-    n_done, status = flat_run(0.0, one["phase"][0] + 1e-4, one["vrel"][0], IMPACT, p.kernel(), *out)
+    start = FlatState(0.0, one["phase"][0] + 1e-4, one["vrel"][0], IMPACT)
+    _, n_done, status = flat_run(start, p.kernel(), 3000, FlatArrays(*out))
     assert status == OK and n_done == 3000
     two = find_periodic_orbit(p, 2, 2, out[1][-1], out[2][-1])
     assert two.is_stable and np.all(two.eigenvalues.imag == 0)
@@ -110,7 +111,9 @@ def test_sum_of_the_spectrum_is_the_closed_form_determinant_which_telescopes():
 
 def _lifted_after(p, phase, vrel, n):
     out = (np.empty(n), np.empty(n), np.empty(n), np.empty(n, np.int64))
-    n_done, status = flat_run(0.0, phase, vrel, IMPACT, p.kernel(), *out)
+    _, n_done, status = flat_run(
+        FlatState(0.0, phase, vrel, IMPACT), p.kernel(), n, FlatArrays(*out)
+    )
     assert status == OK and n_done == n and np.all(out[3] == IMPACT)
     return np.array([out[0][-1] * TWO_PI + out[1][-1], out[2][-1]])
 
@@ -152,7 +155,7 @@ def test_a_stick_forgets_the_state_and_collapses_the_frame():
     finals = []
     for dphase in (0.0, 1e-6):
         out = (np.empty(n), np.empty(n), np.empty(n), np.empty(n, np.int64))
-        flat_run(0.0, 2.0 + dphase, 10.0, IMPACT, p.kernel(), *out)
+        flat_run(FlatState(0.0, 2.0 + dphase, 10.0, IMPACT), p.kernel(), n, FlatArrays(*out))
         first_release = int(np.argmax(out[3] == STICK)) + 1
         finals.append((out[0][first_release], out[1][first_release], out[2][first_release]))
     assert finals[0] == finals[1]
@@ -268,7 +271,8 @@ def orbit_rows() -> list[str]:
     p2 = params_at_gamma(gamma, alpha=ALPHA)
     one = k1_orbit_numeric(1, gamma, ALPHA)
     out = (np.empty(3000), np.empty(3000), np.empty(3000), np.empty(3000, np.int64))
-    flat_run(0.0, one["phase"][0] + 1e-4, one["vrel"][0], IMPACT, p2.kernel(), *out)
+    start = FlatState(0.0, one["phase"][0] + 1e-4, one["vrel"][0], IMPACT)
+    flat_run(start, p2.kernel(), 3000, FlatArrays(*out))
     orbits.append(("2/2", p2, find_periodic_orbit(p2, 2, 2, out[1][-1], out[2][-1]), 2))
     for name, pp, orbit, m in orbits:
         res = flat_lyapunov_from(pp, [orbit["phase"][0]], [orbit["vrel"][0]], t=30.0)

@@ -21,7 +21,7 @@ import numpy as np
 import pytest
 
 from bbdyn import Params
-from bbdyn.core.flat import flat_run_count
+from bbdyn.core.flat import FlatState, flat_run
 from bbdyn.core.status import IMPACT, STICK, STUCK_FOREVER, raise_for_status
 from bbdyn.scans.progress import Progress
 from bbdyn.scans.runner import (
@@ -62,7 +62,9 @@ def flat_ensemble(f, seed_sequence, *, n=16, events=400):
     for i in range(n):
         phase = rng.uniform(0.0, 2.0 * math.pi)
         vrel = rng.uniform(0.1, 2.0) * kp.A * kp.w
-        *_, vrel_i, kind, _, status = flat_run_count(0.0, phase, vrel, IMPACT, kp, events)
+        (_, _, vrel_i, kind), _, status = flat_run(
+            FlatState(0.0, phase, vrel, IMPACT), kp, events, None
+        )
         raise_for_status(status, f"flat_ensemble(f={f})")
         vrel_end[i] = vrel_i
         stuck += kind == STICK and status == STUCK_FOREVER

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from bbdyn import Params
-from bbdyn.core.flat import flat_event, flat_flight, flat_run
+from bbdyn.core.flat import FlatArrays, FlatState, flat_event, flat_flight, flat_run
 from bbdyn.core.flat_jacobian import flat_map_jacobian
 from bbdyn.core.status import IMPACT, OK, STICK
 from bbdyn.core.tolerances import FD_AGREE_REL, FD_STEP_REL, ORBIT_NEWTON_TOL
@@ -118,7 +118,8 @@ def test_numeric_tongue_edges_agree_with_the_closed_form(k):
 def _iterate(p, phase, vrel, n):
     """Events of flat_run from an impact state (phases, vrels, kinds, absolute phase)."""
     out = (np.empty(n), np.empty(n), np.empty(n), np.empty(n, np.int64))
-    n_done, status = flat_run(0.0, phase, vrel, IMPACT, p.kernel(), *out)
+    start = FlatState(0.0, phase, vrel, IMPACT)
+    _, n_done, status = flat_run(start, p.kernel(), n, FlatArrays(*out))
     assert status == OK and n_done == n
     periods, phases, vrels, kinds = out
     return phases, vrels, kinds, periods * 2 * math.pi + phases

@@ -52,7 +52,9 @@ plate's velocity, ``vrel = 0``); for Gamma <= 1 it never leaves.
 """
 
 import math
+from typing import NamedTuple
 
+import numpy as np
 from numba import njit
 
 from bbdyn.core.fmath import fmin2
@@ -82,6 +84,24 @@ from bbdyn.core.tolerances import (
     ROOT_STEP_REL,
     TAYLOR_MAX_SPAN,
 )
+
+
+class FlatState(NamedTuple):
+    """State of the flat ball just after an event."""
+
+    periods: float  # whole driving periods
+    phase: float  # w t mod 2 pi (rad)
+    vrel: float  # velocity relative to the plate (mm/s)
+    kind: int  # IMPACT, STICK or RELEASE
+
+
+class FlatArrays(NamedTuple):
+    """Arrays of a run's events, one row per event (``flat_run``; float64, kind int64)."""
+
+    periods: np.ndarray
+    phase: np.ndarray
+    vrel: np.ndarray
+    kind: np.ndarray
 
 
 @njit(cache=True, fastmath=FMA, inline="always", error_model="numpy")
@@ -346,30 +366,32 @@ def flat_event(periods, phase, vrel, kind, kp):
 
 
 @njit(cache=True, fastmath=FMA, error_model="numpy")
-def flat_run(periods, phase, vrel, kind, kp, out_periods, out_phase, out_vrel, out_kind):
-    """Iterate ``flat_event`` and write each event into the ``out_*`` arrays (in place).
+def flat_run(state, kp, n_events, out):
+    """Iterate ``flat_event`` for ``n_events`` events from ``state``.
 
-    Returns ``(n_written, status)``; stops early at a failure or at ``STUCK_FOREVER``.
+    Parameters
+    ----------
+    state : FlatState
+        The start (taken as three floats and an integer ``kind``).
+    kp : KernelParams
+    n_events : int
+        Events to run.
+    out : FlatArrays or None
+        Event ``i`` goes into row ``i`` of each array (in place; at least ``n_events``
+        rows); None stores nothing (benchmarks, transients).
+
+    Returns ``(state, n_done, status)``: the last event (at a failure, the failing step's
+    result), the events done and the status; the run stops early at a failure or at
+    ``STUCK_FOREVER``.
     """
-    for i in range(out_phase.shape[0]):
-        periods, phase, vrel, kind, status = flat_event(periods, phase, vrel, kind, kp)
-        if status != OK:
-            return i, status
-        out_periods[i] = periods
-        out_phase[i] = phase
-        out_vrel[i] = vrel
-        out_kind[i] = kind
-    return out_phase.shape[0], OK
-
-
-@njit(cache=True, fastmath=FMA, error_model="numpy")
-def flat_run_count(periods, phase, vrel, kind, kp, n_events):
-    """Iterate ``n_events`` events without storing them (for benchmarks and transients).
-
-    Returns the final ``(periods, phase, vrel, kind, n_done, status)``.
-    """
+    periods, phase, vrel, kind = float(state[0]), float(state[1]), float(state[2]), int(state[3])
     for i in range(n_events):
         periods, phase, vrel, kind, status = flat_event(periods, phase, vrel, kind, kp)
         if status != OK:
-            return periods, phase, vrel, kind, i, status
-    return periods, phase, vrel, kind, n_events, OK
+            return FlatState(periods, phase, vrel, kind), i, status
+        if out is not None:
+            out.periods[i] = periods
+            out.phase[i] = phase
+            out.vrel[i] = vrel
+            out.kind[i] = kind
+    return FlatState(periods, phase, vrel, kind), n_events, OK

@@ -43,7 +43,7 @@ from typing import Any
 import numpy as np
 from numba import njit
 
-from bbdyn.core.flat import flat_flight_tol, flat_run, flat_run_count
+from bbdyn.core.flat import FlatArrays, FlatState, flat_flight_tol, flat_run
 from bbdyn.core.plate import TWO_PI
 from bbdyn.core.status import IMPACT, OK, STICK, raise_for_status
 from bbdyn.core.tolerances import EPS, ROOT_STEP_REL
@@ -249,13 +249,13 @@ def _bench_exact(kp, states, settings) -> list[dict[str, Any]]:
     n_events = settings["continuous_events"]
 
     def run_continuous():
-        status = flat_run_count(periods, phase, vrel, kind, kp, n_events)[5]
+        status = flat_run(FlatState(periods, phase, vrel, kind), kp, n_events, None)[2]
         raise_for_status(status, "exact continuous run")
 
     timing = measure(run_continuous, repeats=settings["repeats"], min_time=settings["min_time"])
     continuous = {
         "method": "exact",
-        "setting": f"continuous run, {n_events} events (flat_run_count)",
+        "setting": f"continuous run, {n_events} events (flat_run)",
         "impacts_per_s": timing.per_second(n_events),
         "max_time_error_s": row["max_time_error_s"],
         "max_velocity_error": row["max_velocity_error"],
@@ -373,7 +373,8 @@ def long_run_stats(params: Params, n_impacts: int, fixed) -> list[dict[str, Any]
     # The exact map also records stick and release events; run until n_impacts impacts.
     n_events = n_impacts + n_impacts // 100 + 10
     arrays = [np.empty(n_events) for _ in range(3)] + [np.empty(n_events, dtype=np.int64)]
-    n_done, status = flat_run(periods, phase, vrel, kind, kp, *arrays)
+    start = FlatState(periods, phase, vrel, kind)
+    _, n_done, status = flat_run(start, kp, n_events, FlatArrays(*arrays))
     raise_for_status(status, "long run (exact)")
     ev_phase, ev_vrel, ev_kind = arrays[1][:n_done], arrays[2][:n_done], arrays[3][:n_done]
     impacts = np.flatnonzero(ev_kind == IMPACT)[:n_impacts]
