@@ -24,7 +24,7 @@ import numpy as np
 
 from bbdyn.core.plate import TWO_PI
 from bbdyn.core.status import IMPACT, OK, STATUS_MESSAGES, STUCK_FOREVER
-from bbdyn.core.tangent import flat_tangent_run
+from bbdyn.core.tangent import TangentWindows, flat_tangent_run
 from bbdyn.params import Params
 from bbdyn.results import Result, make_meta
 
@@ -227,10 +227,12 @@ def flat_lyapunov_from(
 def _run_one(kp, phase, vrel, t0, t_ends, log_growth, impacts, collapses):
     """Transient then measurement of one particle; returns (status, window durations in s)."""
     frame = np.array([1.0, 0.0, 0.0, 1.0])
-    scratch = (np.zeros((1, 2)), np.zeros(1, np.int64), np.zeros(1, np.int64), np.full(1, np.nan))
+    scratch = TangentWindows(
+        np.zeros((1, 2)), np.zeros(1, np.int64), np.zeros(1, np.int64), np.full(1, np.nan)
+    )
     state = (0.0, phase, vrel, IMPACT)
     if t0 > 0:
-        *state, status = flat_tangent_run(*state, kp, np.array([t0]), frame, *scratch)
+        state, status = flat_tangent_run(state, kp, np.array([t0]), frame, scratch)
         if status == STUCK_FOREVER:
             # stuck for good before the measurement: a collapse, then no events
             collapses[0] += 1
@@ -239,7 +241,8 @@ def _run_one(kp, phase, vrel, t0, t_ends, log_growth, impacts, collapses):
             return status, np.zeros(t_ends.size)
     start = state[0] + state[1] / TWO_PI
     ends = np.full(t_ends.size, np.nan)
-    *_, status = flat_tangent_run(*state, kp, t_ends, frame, log_growth, impacts, collapses, ends)
+    out = TangentWindows(log_growth, impacts, collapses, ends)
+    _, status = flat_tangent_run(state, kp, t_ends, frame, out)
     return status, _window_durations(start, ends, t_ends, status, kp)
 
 
@@ -411,7 +414,7 @@ def billiard_lyapunov_from(
         particle if a kernel fails.  The tangent vector starts as ``(1, 1, 1, 1) / 2`` in
         the section coordinates ``(theta, x, vx, vyrel)`` (rad, mm, mm/s, mm/s).
     """
-    from bbdyn.core.billiard_tangent import TangentWindows, billiard_tangent_run
+    from bbdyn.core.billiard_tangent import billiard_tangent_run
 
     t = _check_positive("t", t, "s")
     transient = float(transient)

@@ -72,7 +72,7 @@ CORE_ROOMS = {
     "bbdyn.core.billiard": {"plate", "floor", "search", "taylor", "flat"},
     "bbdyn.core.flat_jacobian": {"plate", "flat"},
     "bbdyn.core.tangent": {"plate", "flat", "flat_jacobian"},
-    "bbdyn.core.billiard_tangent": {"plate", "floor", "flat", "billiard"},
+    "bbdyn.core.billiard_tangent": {"plate", "floor", "flat", "billiard", "tangent"},
     "bbdyn.core.highbounce": {"plate"},
     "bbdyn.core.features": {"plate"},
     "bbdyn.core.observables": {"plate", "floor", "layout", "features"},
@@ -90,8 +90,6 @@ CORE_ROOMS = {
 WIDE_CORE_FUNCTIONS = {
     "gap_series",
     "taylor_finish",
-    "flat_tangent_run",
-    "billiard_tangent_event",
 }
 MAX_CORE_PARAMETERS = 10
 

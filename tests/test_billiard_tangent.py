@@ -49,7 +49,7 @@ def tangent(kp, state, n):
     J, W, T = np.empty((4, 4)), np.empty((4, 4)), np.empty((4, 4))
     states, jacs = [state], []
     for _ in range(n):
-        *state, status = billiard_tangent_event(*state, kp, J, W, T)
+        *state, status = billiard_tangent_event(*state, kp, (J, W, T))
         assert status == OK
         states.append(tuple(state))
         jacs.append(J.copy())
@@ -109,7 +109,7 @@ def test_reference_trajectory_is_the_event_kernel_bitwise():
         kinds = set()
         for _ in range(1500):
             a = tuple(billiard_event(*a, kp))[:7]
-            b = tuple(billiard_tangent_event(*b, kp, J, W, T))[:7]
+            b = tuple(billiard_tangent_event(*b, kp, (J, W, T)))[:7]
             assert a == b
             kinds.add(a[6])
         assert kinds == {IMPACT, STICK, RELEASE}  # every kind of event was carried

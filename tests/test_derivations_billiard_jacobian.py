@@ -17,12 +17,9 @@ import sympy as sp
 from derivation_loader import load_derivation
 
 from bbdyn import Params
-from bbdyn.core.billiard_tangent import (
-    TangentWindows,
-    billiard_tangent_event,
-    billiard_tangent_run,
-)
+from bbdyn.core.billiard_tangent import billiard_tangent_event, billiard_tangent_run
 from bbdyn.core.status import IMPACT, OK
+from bbdyn.core.tangent import TangentWindows
 from bbdyn.tongues import k1_orbit
 
 D = load_derivation("billiard_orbit_jacobian")
@@ -46,7 +43,7 @@ def test_top_orbit_jacobian_splits_into_flat_and_curvature_blocks():
 
 def one_event(kp, state):
     J, W, T = np.empty((4, 4)), np.empty((4, 4)), np.empty((4, 4))
-    *out, status = billiard_tangent_event(*state, kp, J, W, T)
+    *out, status = billiard_tangent_event(*state, kp, (J, W, T))
     assert status == OK
     return out, J
 

@@ -137,7 +137,7 @@ def _amplification(ev, releases, kp):
     v = np.array([0.0, 1.0, 0.0, 0.0])
     rows = []
     while releases:
-        ev = billiard_tangent_event(*ev, kp, J, W, T)[:7]
+        ev = billiard_tangent_event(*ev, kp, (J, W, T))[:7]
         v = J @ v
         t = ev[0] * kp.period + ev[1] / kp.w
         rows.append((t, abs(v[1]), abs(v[2]), abs(ev[4] * v[0]) / kp.w))

@@ -18,7 +18,7 @@ from bbdyn.core.flat import (
     FlatArrays,
     FlatState,
     chatter_time,
-    flat_flight_evals,
+    flat_flight_tol,
     flat_gap,
     flat_run,
 )
@@ -101,7 +101,7 @@ def test_cubic_search_finds_the_plain_search_root_with_fewer_evaluations(f, alph
     kp, phases, vrels = _impact_states(f, alpha)
     n_fast, n_plain = 0, 0
     for phase, vrel in zip(phases, vrels, strict=True):
-        tau, vm, status, n = flat_flight_evals(phase, vrel, kp)
+        tau, vm, status, n = flat_flight_tol(phase, vrel, kp, ROOT_STEP_REL)
         tau_plain, n_p = _plain_flight(phase, vrel, kp)
         assert status == OK
         s0, c0 = math.sin(phase), math.cos(phase)

@@ -14,7 +14,7 @@ import pytest
 from bbdyn.core.flat import FlatArrays, FlatState, flat_run
 from bbdyn.core.plate import TWO_PI
 from bbdyn.core.status import IMPACT, OK, STICK, STUCK_FOREVER
-from bbdyn.core.tangent import flat_tangent_run
+from bbdyn.core.tangent import TangentWindows, flat_tangent_run
 from bbdyn.lyapunov import flat_lyapunov, flat_lyapunov_from
 from bbdyn.params import Params
 from bbdyn.tongues import (
@@ -39,10 +39,10 @@ def _run_kernel(p, phase, vrel, t_end_periods):
         np.zeros(1, np.int64),
         np.full(1, np.nan),
     )
-    state = flat_tangent_run(
-        0.0, phase, vrel, IMPACT, p.kernel(), np.array([t_end_periods]), frame, log, imp, col, end
-    )
-    return state, frame, log[0], int(imp[0]), int(col[0])
+    out = TangentWindows(log, imp, col, end)
+    start = (0.0, phase, vrel, IMPACT)
+    state, status = flat_tangent_run(start, p.kernel(), np.array([t_end_periods]), frame, out)
+    return (*state, status), frame, log[0], int(imp[0]), int(col[0])
 
 
 def _orbit_bound(orbit, n_impacts):
@@ -319,7 +319,7 @@ def billiard_doc_rows(groups) -> list[str]:
 def billiard_orbit_rows() -> list[str]:
     """The top-orbit rows of docs/lyapunov.md: closed form against a tangent run of 4000
     collisions started on the orbit."""
-    from bbdyn.core.billiard_tangent import TangentWindows, billiard_tangent_run
+    from bbdyn.core.billiard_tangent import billiard_tangent_run
     from bbdyn.lyapunov import top_orbit_exponent
 
     rows = []

@@ -70,7 +70,7 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit
 
-from bbdyn.core.flat import flat_flight_evals, flat_gap_phase, stick_release
+from bbdyn.core.flat import flat_flight_tol, flat_gap_phase, stick_release
 from bbdyn.core.floor import arc_root, bounce, bounce_at, floor_drop
 from bbdyn.core.fmath import clamp, fmax2, fmin2
 from bbdyn.core.plate import advance_phase, sin_cos
@@ -402,7 +402,7 @@ def flight_search(phase, sn, cs, xi0, S0, vx, vyrel, kp, cubic):
         # over xi0, so G is the flat ball's gap.  Near theta_e its contact is of third order
         # (G'' -> 0), which the flat search's cubic bound finds in a few steps where the
         # quadratic bound M here would crawl (~1/sqrt(theta_e - phase) steps).
-        tau, vrel_minus, status, n_evals = flat_flight_evals(phase, vyrel, kp)
+        tau, vrel_minus, status, n_evals = flat_flight_tol(phase, vyrel, kp, ROOT_STEP_REL)
         return tau, k_base, xi0, vrel_minus, n_evals, status
     # Interval in which the particle is above A + h, the floor's highest point ever: no
     # contact there, so a step that ends inside it goes on to its end unevaluated.

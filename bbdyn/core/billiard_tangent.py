@@ -88,7 +88,6 @@ floor; the largest exponent stays finite unless the particle sticks at a wedge.
 """
 
 import math
-from typing import NamedTuple
 
 import numpy as np
 from numba import njit
@@ -271,7 +270,7 @@ def chatter_stick_rows(phase, xi, vx, vyrel, kp, M):
 
 
 @njit(cache=True, fastmath=FMA)
-def billiard_tangent_event(periods, phase, tile, xi, vx, vyrel, kind, kp, J, W, T):
+def billiard_tangent_event(periods, phase, tile, xi, vx, vyrel, kind, kp, mats):
     """Advance the billiard by one event and write the event map's Jacobian into ``J``.
 
     Parameters
@@ -279,17 +278,17 @@ def billiard_tangent_event(periods, phase, tile, xi, vx, vyrel, kind, kp, J, W, 
     periods, phase, tile, xi, vx, vyrel, kind
         Current event state (``core.billiard.billiard_event``).
     kp : KernelParams
-    J : ndarray (4, 4)
-        Out: ``d q_{n+1} / d q_n`` in section coordinates ``(theta, x, vx, vyrel)``
-        (module docstring); all zero for a collapse (a stick at a wedge).
-    W, T : ndarray (4, 4)
-        Scratch.
+    mats : (J, W, T), ndarrays (4, 4)
+        ``J`` out: ``d q_{n+1} / d q_n`` in section coordinates ``(theta, x, vx, vyrel)``
+        (module docstring); all zero for a collapse (a stick at a wedge).  ``W, T``:
+        scratch.
 
     Returns
     -------
     (periods, phase, tile, xi, vx, vyrel, kind, status)
         The next event, bitwise that of ``billiard_event``.
     """
+    J, W, T = mats
     if kind == STICK:
         periods_r, phase_r, status = stick_release(periods, phase, kp)
         for i in range(4):
@@ -346,15 +345,6 @@ def billiard_tangent_event(periods, phase, tile, xi, vx, vyrel, kind, kp, J, W, 
     return out
 
 
-class TangentWindows(NamedTuple):
-    """Output arrays of ``billiard_tangent_run``, one entry per window."""
-
-    log: np.ndarray  # sum of log |J v| / |v|
-    collisions: np.ndarray  # int64
-    collapses: np.ndarray  # int64
-    time: np.ndarray  # driving periods of the window's last event
-
-
 @njit(cache=True, fastmath=FMA, error_model="numpy")
 def billiard_tangent_run(state, kp, t_ends, vec, out):
     """Advance one particle through events with one tangent vector, window by window.
@@ -396,7 +386,7 @@ def billiard_tangent_run(state, kp, t_ends, vec, out):
     while j < n_w:
         collision = kind != STICK
         periods, phase, tile, xi, vx, vyrel, kind, status = billiard_tangent_event(
-            periods, phase, tile, xi, vx, vyrel, kind, kp, J, W, T
+            periods, phase, tile, xi, vx, vyrel, kind, kp, (J, W, T)
         )
         if status == STUCK_FOREVER:
             out_time[j] = max(t, t_ends[j])  # it rests on the floor to the window's end

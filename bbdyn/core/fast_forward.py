@@ -120,7 +120,7 @@ def release_map(periods, phase, tile, xi, releases, max_events, kp):
     vx, vyrel, kind = 0.0, 0.0, np.int64(RELEASE)
     left = releases
     for n in range(1, max_events + 1):
-        out = billiard_tangent_event(periods, phase, tile, xi, vx, vyrel, kind, kp, J, W, T)
+        out = billiard_tangent_event(periods, phase, tile, xi, vx, vyrel, kind, kp, (J, W, T))
         if out[7] != OK:
             break
         periods, phase, tile, xi, vx, vyrel, kind = out[:7]

@@ -227,16 +227,6 @@ def flat_flight_tol(phase, vrel, kp, step_rel):
 
 
 @njit(cache=True, fastmath=FMA, forceinline=True, error_model="numpy")
-def flat_flight_evals(phase, vrel, kp):
-    """``flat_flight`` that also returns the number of gap evaluations it made.
-
-    Returns ``(tau, vrel_minus, status, n_evals)``: ``flat_flight_tol`` at the
-    default tolerance ``ROOT_STEP_REL``.
-    """
-    return flat_flight_tol(phase, vrel, kp, ROOT_STEP_REL)
-
-
-@njit(cache=True, fastmath=FMA, forceinline=True, error_model="numpy")
 def flat_flight(phase, vrel, kp):
     """Time to the first contact after an event, and the relative velocity there.
 
@@ -259,7 +249,7 @@ def flat_flight(phase, vrel, kp):
         ``OK``, ``BAD_STATE`` (vrel <= 0 where the plate holds the particle) or
         ``ROOT_NOT_CONVERGED``.
     """
-    tau, vrel_minus, status, _ = flat_flight_evals(phase, vrel, kp)
+    tau, vrel_minus, status, _ = flat_flight_tol(phase, vrel, kp, ROOT_STEP_REL)
     return tau, vrel_minus, status
 
 

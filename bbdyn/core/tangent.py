@@ -28,7 +28,9 @@ of the growth between sticks.
 """
 
 import math
+from typing import NamedTuple
 
+import numpy as np
 from numba import njit
 
 from bbdyn.core.flat import flat_event
@@ -66,16 +68,24 @@ def event_time(periods, phase):
     return periods + phase / TWO_PI
 
 
+class TangentWindows(NamedTuple):
+    """Output arrays of a tangent run (``flat_tangent_run``, ``billiard_tangent_run``), one
+    entry per window."""
+
+    log: np.ndarray  # sums of the logarithms of the growth factors
+    collisions: np.ndarray  # int64: impacts (flat ball), IMPACT and STICK events (billiard)
+    collapses: np.ndarray  # int64: collapses of the tangent vector (sticks)
+    time: np.ndarray  # driving periods of the window's last event
+
+
 @njit(cache=True, fastmath=FMA, error_model="numpy")
-def flat_tangent_run(
-    periods, phase, vrel, kind, kp, t_ends, frame, out_log, out_impacts, out_collapses, out_time
-):
+def flat_tangent_run(state, kp, t_ends, frame, out):
     """Advance one flat ball through events with its tangent frame, window by window.
 
     Parameters
     ----------
-    periods, phase, vrel, kind
-        State of the current event (``core.flat.flat_event``).
+    state : tuple
+        State ``(periods, phase, vrel, kind)`` of the current event (``core.flat.flat_event``).
     kp : KernelParams
     t_ends : ndarray (n_windows,)
         Ends of the windows in driving periods, increasing.  An event belongs to
@@ -83,21 +93,21 @@ def flat_tangent_run(
         event after ``t_ends[-1]``.
     frame : ndarray (4,)
         Orthonormal frame ``(q00, q10, q01, q11)`` (in/out).
-    out_log : ndarray (n_windows, 2)
-        Sum of ``log R[0, 0]`` and ``log R[1, 1]`` over the impacts of each window (added to).
-    out_impacts, out_collapses : ndarray (n_windows,) int64
-        Impacts carried by the Jacobian, and collapses (sticks) in each window (added to).
-    out_time : ndarray (n_windows,)
-        Time (driving periods) of the last event of each window (overwritten;
-        untouched for a window without events).
+    out : TangentWindows
+        Per window: ``log`` (n_windows, 2), the sums of ``log R[0, 0]`` and ``log R[1, 1]``
+        over its impacts, and ``collisions`` (impacts carried by the Jacobian) and
+        ``collapses`` (sticks), added to; ``time`` (driving periods) of its last event
+        (overwritten; untouched for a window without events).
 
     Returns
     -------
-    (periods, phase, vrel, kind, status)
+    (state, status)
         The last event; ``status`` is ``OK``, ``STUCK_FOREVER`` (Gamma <= 1: stuck
         for good, counted as a collapse, the windows after it have no events) or
         a failure status of ``flat_event``.
     """
+    periods, phase, vrel, kind = state
+    out_log, out_impacts, out_collapses, out_time = out
     q00, q10, q01, q11 = frame[0], frame[1], frame[2], frame[3]
     n_w = t_ends.shape[0]
     j = 0
@@ -141,4 +151,4 @@ def flat_tangent_run(
         if t > t_ends[j]:
             j += 1
     frame[0], frame[1], frame[2], frame[3] = q00, q10, q01, q11
-    return periods, phase, vrel, kind, status
+    return (periods, phase, vrel, kind), status
