@@ -66,7 +66,7 @@ CORE_ROOMS = {
     "bbdyn.core.layout": set(),
     "bbdyn.core.plate": set(),
     "bbdyn.core.floor": set(),
-    "bbdyn.core.taylor": {"plate"},
+    "bbdyn.core.taylor": set(),
     "bbdyn.core.search": set(),
     "bbdyn.core.flat": {"plate", "search", "taylor"},
     "bbdyn.core.billiard": {"plate", "floor", "search", "taylor", "flat"},
