@@ -233,12 +233,12 @@ def diffusion_point(
     Returns
     -------
     dict
-        Floats (flags as 0/1) and arrays, see the module docstring; energies in
-        kg mm^2/s^2 (E, E_x, E_y, E_pot, each with its standard error ``_se``; ``E_reference`` = A^2 w^2 / 2),
-        D in mm^2/s, ``msd`` (n_samples,) in mm^2, ``sample_times`` (s), ``gamma``,
-        ``stuck_fraction``, ``collision_rate`` and ``jump_rate`` (per particle per s,
-        in the averaging window), ``flight_periods`` (mean flight time in periods) and
-        ``events`` (all events of the run, for the cost profile).
+        Floats (flags as 0/1) and arrays, see the module docstring; energies in kg mm^2/s^2
+        (E, E_x, E_y, E_pot, each with its standard error ``_se``; ``E_reference`` = A^2 w^2
+        / 2), D in mm^2/s, ``msd`` (n_samples,) in mm^2, ``sample_times`` (s), ``gamma``,
+        ``stuck_fraction``, ``collision_rate`` and ``jump_rate`` (per particle per s, in the
+        averaging window), ``flight_periods`` (mean flight time in periods) and ``events``
+        (all events of the run, for the cost profile).
 
     Examples
     --------
