@@ -520,13 +520,13 @@ def ensemble(
     def advance(budget):
         core.run_ensemble(carry, budget, params.kernel(), times, obs, buffers)
 
-    start = time.perf_counter()
+    start, cpu_start = time.perf_counter(), time.process_time()
     with numba_threads(threads) as used_threads:
         run_chunked(
             advance, carry, status, end_periods[0] + end_phase[0] / (2 * math.pi),
             chunk_events=chunk_events, progress=progress,
         )  # fmt: skip
-    wall = time.perf_counter() - start
+    wall, cpu = time.perf_counter() - start, time.process_time() - cpu_start
     failed = failed_particles(status, ics, on_failure)
 
     t_window = (window[1] - window[0]) / params.f
@@ -559,6 +559,7 @@ def ensemble(
         params,
         seed=seed,
         wall_s=wall,
+        cpu_s=cpu,
         t=t,
         n=n,
         transient=transient,

@@ -148,7 +148,7 @@ def test_bench_billiard_cli_json(tmp_path, capsys):
     assert (
         cli.main(["bench", "billiard", "--quick", "--json", "--out", str(tmp_path / "b.png")]) == 0
     )
-    rows = json.loads(capsys.readouterr().out)
+    rows = json.loads(capsys.readouterr().out)["rows"]
     assert rows[0]["method"] == "exact" and rows[0]["collisions_per_s"] > 0
     assert (tmp_path / "b.png").exists() and (tmp_path / "b.json").exists()
 

@@ -243,7 +243,7 @@ def test_bench_flat_json_rows_have_finite_fields(tmp_path, capsys, monkeypatch):
     png = tmp_path / "bench.png"
     argv = ["bench", "flat", "--quick", "--json", "--impacts", "6", "--long-run", "200"]
     assert cli.main([*argv, "--out", str(png)]) == 0
-    rows = json.loads(capsys.readouterr().out)
+    rows = json.loads(capsys.readouterr().out)["rows"]
     peers = {"heyoka"} if heyoka_available() else set()
     assert {r["method"] for r in rows} == {"exact", "fixed_step", "solve_ivp"} | peers
     for row in rows:

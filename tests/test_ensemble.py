@@ -323,8 +323,8 @@ def test_simulate_command_prints_the_required_fields(capsys):
     args = parser.parse_args(["--f", "85.2", "--n", "20", "--t", "1", "--seed", "3", "--json"])
     assert simulate.run(args) == 0
     out = json.loads(capsys.readouterr().out)
-    for key in ("D", "D_se", "E", "E_x", "E_y", "stuck_fraction", "collisions_per_particle_per_s",
-                "wall_s", "params", "seed", "version"):  # fmt: skip
+    for key in ("D", "D_se", "E", "E_x", "E_y", "stuck_fraction", "collision_rate",
+                "cpu_s", "wall_s", "params", "seed", "version"):  # fmt: skip
         assert key in out, key
     assert out["params"]["f"] == 85.2 and out["seed"] == 3
     args = parser.parse_args(["--f", "85.2", "--n", "20", "--t", "1", "--seed", "3"])

@@ -11,25 +11,27 @@ finds; with the largest exponent of each time window (convergence check).
 both exponents per second and per impact, the conditional exponents (growth between
 sticks), the stuck fraction and the window exponents.
 
-JSON keys (billiard): ``model`` ("billiard"), ``params``, ``f``, ``gamma``, ``n``, ``t``
-(s), ``transient`` (s), ``per`` ("attractor" or "ensemble"); ``lam1_per_s``,
-``lam1_per_s_se`` (1/s), ``lam1_per_collision``, ``lam1_per_collision_se``, the same
-with ``cond_`` (growth between collapses), ``collapse_fraction``, ``collisions_per_s``,
-``window_cond_lam1_per_s`` (1/s) for the ensemble; ``attractors``: a list of the same
-keys with ``attractor``, ``fraction``, ``character``; ``regime``; ``wall_s``; ``units``.
-(flat): ``model`` ("flat"), ``lam1_per_s``, ``lam2_per_s`` and ``cond_...`` (1/s),
-``..._per_impact``, each with ``_se``; ``stuck_fraction``; ``window_cond_lam1_per_s``.
+JSON keys (docs/schema.md), both: ``version``, ``params``, ``seed``, ``model``, ``f``,
+``gamma``, ``n``, ``t`` (s), ``cpu_s``, ``wall_s`` (s), ``units``.  Billiard (``model``
+"billiard"): ``transient`` (s), ``per`` ("attractor" or "ensemble"); ``lam1_per_s``,
+``lam1_per_s_se`` (1/s), ``lam1_per_collision``, ``lam1_per_collision_se``, the same with
+``cond_`` (growth between collapses), ``collapse_fraction``, ``collision_rate`` (1/s),
+``window_cond_lam1_per_s`` (1/s) for the ensemble; ``attractors``: a list of the same keys
+with ``attractor``, ``fraction``, ``character``; ``regime``.  Flat (``model`` "flat"):
+``lam1_per_s``, ``lam2_per_s`` and ``cond_...`` (1/s), ``..._per_impact``, each with
+``_se``; ``stuck_fraction``; ``impact_rate`` (1/s); ``window_cond_lam1_per_s``.
 """
 
 from bbdyn.commands import (
     BILLIARD_OPTIONS,
+    Clock,
     add_model_arguments,
     finite,
     integer_in,
-    jsonable,
+    json_output,
     params_from,
+    print_json,
     seed,
-    units_of,
 )
 
 HELP = "Largest Lyapunov exponent of the billiard per attractor (or the flat ball's, --flat)"
@@ -67,31 +69,33 @@ def add_arguments(parser) -> None:
 
 
 def lyapunov_summary(args) -> dict:
-    """Run the exponents for ``args`` (billiard, or the flat ball with ``--flat``)."""
-    return flat_summary(args) if args.flat else billiard_summary(args)
+    """Run the exponents for ``args`` (billiard, or the flat ball with ``--flat``): the
+    JSON object of the command."""
+    clock = Clock()
+    out = flat_summary(args) if args.flat else billiard_summary(args)
+    return json_output(out, params=params_from(args).to_dict(), clock=clock, seed=args.seed)
 
 
 def flat_summary(args) -> dict:
-    """The flat ball's summary dict with the window exponents."""
+    """The flat ball's numbers with the window exponents (keys of the Python objects)."""
     from bbdyn.lyapunov import flat_lyapunov
 
     params = params_from(args)
     res = flat_lyapunov(
         params, args.n, t=args.t, transient=args.transient, windows=args.windows, seed=args.seed
     )
-    out = {"model": "flat", "params": params.to_dict(), "f": args.f, "gamma": params.gamma}
+    out = {"model": "flat", "f": args.f, "gamma": params.gamma}
     out.update(n=args.n, t=args.t)
     out.update(res.summary())
     out["window_cond_lam1_per_s"] = [float(x) for x in res.window_exponents()]
     if out["stuck_fraction"] > 0:
         out["note"] = "exponents -inf (null in JSON): a particle stuck, which forgets its state"
-    out["wall_s"] = res.meta["wall_s"]
-    out["units"] = units_of(out)
     return out
 
 
 def billiard_summary(args) -> dict:
-    """The billiard's summary: the ensemble's, and each attractor's unless ``--no-classify``."""
+    """The billiard's numbers: the ensemble's, and each attractor's unless ``--no-classify``
+    (keys of the Python objects)."""
     from bbdyn.lyapunov import billiard_lyapunov
 
     params = params_from(args)
@@ -100,7 +104,7 @@ def billiard_summary(args) -> dict:
         params, args.n, t=args.t, transient=args.transient, windows=args.windows,
         seed=args.seed, classify_attractors=classified,
     )  # fmt: skip
-    out = {"model": "billiard", "params": params.to_dict(), "f": args.f, "gamma": params.gamma}
+    out = {"model": "billiard", "f": args.f, "gamma": params.gamma}
     out.update(t=args.t, transient=args.transient, per="attractor" if classified else "ensemble")
     out.update(res.summary())
     if classified:
@@ -113,8 +117,6 @@ def billiard_summary(args) -> dict:
         out["unsettled_fraction"] = cls["unsettled_fraction"]
     if out["collapse_fraction"] > 0:
         out["note"] = "exponent -inf (null in JSON): a particle stuck at a wedge"
-    out["wall_s"] = res.meta["wall_s"]
-    out["units"] = units_of(out)
     return out
 
 
@@ -132,7 +134,7 @@ def _billiard_lines(s: dict) -> list[str]:
         lines.append(
             f"{name:>30} {g['lam1_per_s']:>12.5g} +- {g['lam1_per_s_se']:<7.2g}"
             f"{g['lam1_per_collision']:>14.5g} +- {g['lam1_per_collision_se']:<7.2g}"
-            f"{g['collisions_per_s']:>13.5g}"
+            f"{g['collision_rate']:>13.5g}"
         )
     if "regime" in s:
         lines.append(f"regime {s['regime']}, unsettled fraction {s['unsettled_fraction']:.2f}")
@@ -158,11 +160,9 @@ def _flat_lines(s: dict) -> list[str]:
 
 
 def run(args) -> int:
-    import json
-
     s = lyapunov_summary(args)
     if args.json:
-        print(json.dumps(jsonable(s), indent=2))
+        print_json(s)
         return 0
     print("\n".join(_flat_lines(s) if args.flat else _billiard_lines(s)))
     return 0

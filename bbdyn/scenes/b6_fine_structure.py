@@ -118,7 +118,7 @@ def compute(
     pos = np.searchsorted(scan.values, f)
     wall = np.array([p["wall_s"] for p in scan.meta["points"]])
     arrays = {"f": f, "centre": cidx, "level": lidx, "D": scan["D"][pos],
-              "D_err": scan["D_err"][pos], "cpu_s": wall[pos]}  # fmt: skip
+              "D_err": scan["D_se"][pos], "cpu_s": wall[pos]}  # fmt: skip
     centres = np.asarray(settings["centres"], dtype=float)
     steps = np.asarray(settings["steps"], dtype=float)
     arrays.update(centres=centres, steps=steps)
