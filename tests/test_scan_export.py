@@ -46,6 +46,24 @@ def test_a_point_reports_its_workers_cpu_time_not_its_wall_time(tmp_path):
     times = res.point_times()
     assert np.all(times["wall_s"] >= SLEEP_S)
     assert np.all(times["cpu_s"] < 0.25 * SLEEP_S)
+    np.testing.assert_array_equal(res.point_cpu_s(), times["cpu_s"])
+
+
+def test_scenes_count_the_points_cpu_time(scan):
+    """S3-S5 state the scan's CPU time from the points' process time, not their wall time;
+    a point that recorded no CPU time (an older scan) counts its wall time instead."""
+    from bbdyn.params import Params
+    from bbdyn.scenes.frequency_scene import FrequencyScanScene
+
+    times = scan.point_times()
+    scene = FrequencyScanScene.from_scan(scan, Params(f=85.0))
+    assert scene.meta["scan_cpu_s"] == pytest.approx(times["cpu_s"].sum(), rel=1e-12)
+    scan.meta["points"][0].pop("cpu_s")
+    try:
+        expected = times["wall_s"][0] + times["cpu_s"][1]
+        assert scan.point_cpu_s().sum() == pytest.approx(expected, rel=1e-12)
+    finally:
+        scan.meta["points"][0]["cpu_s"] = times["cpu_s"][0]
 
 
 def test_plot_draws_D_with_its_standard_errors(scan):

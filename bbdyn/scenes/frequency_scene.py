@@ -66,7 +66,7 @@ class FrequencyScanScene(Result):
         # the scene keeps its array names; the scan's are the schema's (X_se for X_err)
         arrays = {"f": f} | {k: scan[standard_key(k)] for k in SCENE_KEYS}
         arrays["tongues"] = tongue_intervals(params, float(f.min()), float(f.max()))
-        cpu = float(sum(p["wall_s"] for p in scan.meta["points"]))
+        cpu = float(scan.point_cpu_s().sum())
         return cls(
             arrays,
             make_meta(
