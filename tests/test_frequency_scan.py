@@ -14,6 +14,7 @@ import shutil
 
 import numpy as np
 import pytest
+from extras import require
 
 from bbdyn import Params
 from bbdyn.core.floor import floor_height_rel
@@ -212,7 +213,7 @@ def test_scan_interrupted_and_resumed_equals_uninterrupted(tmp_path):
 
 
 def test_scan_on_dask_equals_local(tmp_path):
-    distributed = pytest.importorskip("distributed")
+    distributed = require("distributed", "dask")
     local = frequency_scan(FREQS[1:], out_dir=tmp_path / "local", seed=9, workers=1, **TINY)
     with (
         distributed.LocalCluster(n_workers=1, threads_per_worker=1, processes=False) as cluster,

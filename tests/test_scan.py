@@ -19,6 +19,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from extras import require
 
 from bbdyn import Params
 from bbdyn.core.flat import flat_run_count
@@ -353,9 +354,7 @@ def test_plot_draws_errorbars_of_a_scalar(reference):
 # ---- dask -----------------------------------------------------------------------------------
 @pytest.fixture(scope="module")
 def cluster():
-    distributed = pytest.importorskip(
-        "distributed", reason="dask.distributed not installed (pip install 'bbdyn[dask]')"
-    )
+    distributed = require("distributed", "dask")
     with distributed.LocalCluster(
         n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None
     ) as cluster:

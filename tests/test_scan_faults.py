@@ -19,6 +19,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from extras import require
 
 import bbdyn.results
 from bbdyn.scans.runner import load_scan, run_scan
@@ -320,7 +321,7 @@ def test_full_disk_in_the_command_is_a_short_message(tmp_path):
 
 # ---- unreachable scheduler ------------------------------------------------------------------
 def test_unreachable_scheduler_fails_fast_and_writes_nothing(tmp_path):
-    pytest.importorskip("distributed")
+    require("distributed", "dask")
     address = "tcp://127.0.0.1:1"
     t0 = time.monotonic()
     with pytest.raises(OSError, match="scheduler") as info:
