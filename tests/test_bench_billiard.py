@@ -124,7 +124,9 @@ def test_compute_rows_and_table(tmp_path):
     for row in rows:
         for key in ("method", "setting", "impacts_per_s", "collisions_per_s", "max_time_error_s"):
             assert key in row
-        assert row["collisions_per_s"] > 0
+        assert row["collisions_per_s"] > 0 and row["collisions_per_cpu_s"] > 0
+    assert "coll/s wall" in bench.table(res) and "coll/CPU-s" in bench.table(res)
+    assert all(p["collisions_per_cpu_s"] > 0 for p in res.meta["profile"])
     exact = rows[0]
     assert exact["max_time_error_s"] <= IMPACT_TIME_TOL and exact["wrong_contacts"] == 0
     fixed = [r for r in rows if r["method"] == "fixed_step"]

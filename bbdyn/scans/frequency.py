@@ -43,6 +43,7 @@ __all__ = [
     "average_rounding",
     "check_scan_size",
     "cpu_estimate",
+    "scan_cpu_forecast",
     "diffusion_fit",
     "diffusion_point",
     "energy_scale",
@@ -133,10 +134,59 @@ def _check_point_arguments(params: Params, n, t, transient, n_samples) -> int:
 def cpu_estimate(f_sum: float, n: int, t: float) -> float:
     """CPU time (s) of ``n`` particles for ``t`` s at frequencies summing to ``f_sum`` (Hz),
     from the ensemble's conservative event model (``bbdyn.ensemble.EVENTS_PER_PERIOD``
-    events per period at ``EVENT_COST_S`` each): an upper estimate, real runs are faster."""
+    events per period at ``EVENT_COST_S`` each): an upper bound for refusing oversized
+    scans, tens of times the CPU time of typical scans (``scan_cpu_forecast`` forecasts it)."""
     from bbdyn.ensemble import EVENT_COST_S, EVENTS_PER_PERIOD
 
     return float(f_sum) * float(n) * float(t) * EVENTS_PER_PERIOD * EVENT_COST_S
+
+
+#: Forecast of a scan's CPU time (``scan_cpu_forecast``), measured as process time of the
+#: workers on this project's machine with one numba thread.  CPU time (s) per particle and
+#: driving period of a ``diffusion_point`` or ``gk_point`` with compiled kernels: 0.43-0.67
+#: us at the quick settings of S3, S9 and B6, 0.32-0.36 us for the full S3 scan (whose
+#: ensembles fast-forward more of their stick-release cycles).  Particles that stick for
+#: good cost nothing after they stick (Gamma <= 1): the forecast counts them all.
+POINT_PERIOD_CPU_S = 0.5e-6
+#: The same for a ``bbdyn.classify.classify`` point (scene B1: features per block, half the
+#: run a transient): 1.3 us at B1's quick setting.
+CLASSIFY_PERIOD_CPU_S = 1.3e-6
+#: CPU time (s) a local worker takes to start (forked from the scan's server process) and
+#: to load the compiled kernels of its points from numba's cache.
+WORKER_START_CPU_S = 1.0
+#: CPU time (s) a worker takes to compile the kernels of its points when numba's cache
+#: lacks them (the first run after installing or changing bbdyn): 45-60 s per worker
+#: (each worker compiles the kernels itself).
+WORKER_COMPILE_CPU_S = 60.0
+
+
+def scan_cpu_forecast(
+    f_sum: float,
+    n_points: int,
+    n: int,
+    t: float,
+    *,
+    period_cpu_s: float = POINT_PERIOD_CPU_S,
+    workers: int | None = None,
+) -> dict[str, float]:
+    """Forecast of the CPU time (s) of a local scan of ``n_points`` frequencies summing to
+    ``f_sum`` (Hz), ``n`` particles for ``t`` s each, summed over its worker processes
+    (``bbdyn.scans.runner.local_workers``).
+
+    Returns ``cpu_s``: the points (``period_cpu_s`` per particle and driving period) and the
+    workers' start-up, with compiled kernels; and ``compile_cpu_s``: what the workers add
+    when numba's cache lacks the kernels (``WORKER_COMPILE_CPU_S`` each), not included in
+    ``cpu_s``.  A forecast, not a bound: within a factor of 2 of the measured CPU time for
+    the scenes' quick and full scans (tests/test_cost_forecast.py).
+    """
+    from bbdyn.scans.runner import local_workers
+
+    procs = local_workers(workers, int(n_points))
+    points = float(f_sum) * float(n) * float(t) * float(period_cpu_s)
+    return {
+        "cpu_s": points + procs * WORKER_START_CPU_S,
+        "compile_cpu_s": procs * WORKER_COMPILE_CPU_S,
+    }
 
 
 def check_scan_size(

@@ -69,6 +69,7 @@ __all__ = [
     "ScanResult",
     "describe_compute",
     "load_scan",
+    "local_workers",
     "point_key",
     "point_seed",
     "run_scan",
@@ -536,6 +537,12 @@ def _available_cores() -> int:
     return os.cpu_count() or 1
 
 
+def local_workers(workers: int | None, n_points: int) -> int:
+    """Worker processes a local scan of ``n_points`` points to compute starts: ``workers``,
+    or else one per available core, and never more than points."""
+    return max(1, min(workers or _available_cores(), n_points))
+
+
 # ---- the scan -------------------------------------------------------------------------------
 def run_scan(
     values: Sequence[float],
@@ -625,7 +632,7 @@ def run_scan(
             try:
                 if todo:
                     if backend is None:
-                        backend = _LocalBackend(min(workers or _available_cores(), len(todo)))
+                        backend = _LocalBackend(local_workers(workers, len(todo)))
                     with _sigterm_as_interrupt():
                         _drive(backend, todo, compute, seed, name, stems, manifest, bar, out_dir)
             finally:

@@ -79,12 +79,14 @@ def grid_points(settings: dict) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     return f, c.astype(int), lv.astype(int)
 
 
-def cost(settings: dict) -> float:
-    """Upper estimate of the CPU time (s) of the scan of every grid point of ``settings``."""
-    from bbdyn.scans.frequency import cpu_estimate
+def cost(settings: dict) -> dict[str, float]:
+    """Forecast of the CPU time (s) of the scan of every grid point of ``settings``:
+    ``bbdyn.scans.frequency.scan_cpu_forecast``."""
+    from bbdyn.scans.frequency import scan_cpu_forecast
 
     values = np.unique(grid_points(settings)[0])
-    return cpu_estimate(values.sum(), settings["n"], settings["t"])
+    return scan_cpu_forecast(values.sum(), values.size, settings["n"], settings["t"],
+                             workers=settings.get("workers"))  # fmt: skip
 
 
 def run_points(settings: dict, seed: int, out_dir=None, progress=False):

@@ -52,11 +52,12 @@ def scan_points(settings: dict, seed: int, out_dir, *, keys, progress=False):
     return arrays, scan.meta
 
 
-def cost(settings: dict) -> float:
-    """Upper estimate of the CPU time (s) of the scan of ``settings`` (shared with S10)."""
-    from bbdyn.scans.cache import grid_cpu_estimate
+def cost(settings: dict) -> dict[str, float]:
+    """Forecast of the CPU time (s) of the scan of ``settings`` (shared with S10):
+    ``bbdyn.scans.frequency.scan_cpu_forecast``."""
+    from bbdyn.scans.cache import grid_cpu_forecast
 
-    return grid_cpu_estimate(settings)
+    return grid_cpu_forecast(settings)
 
 
 def compute(settings: dict, seed: int = 0, out_dir=None, progress=False) -> SceneS9Result:
