@@ -11,8 +11,8 @@ def require(module: str, extra: str):
     )
 
 
-#: The modules of the docs extra that the documentation site's build needs.
-DOCS_TOOLCHAIN = ("sphinx", "myst_nb", "numpydoc", "pydata_sphinx_theme")
+#: The modules of the docs extra that the documentation site's build needs (docs/conf.py).
+DOCS_TOOLCHAIN = ("sphinx", "myst_nb", "numpydoc", "pydata_sphinx_theme", "sphinx-mathjax-offline")
 
 
 def require_docs_toolchain() -> None:

@@ -144,7 +144,7 @@ def cpu_estimate(f_sum: float, n: int, t: float) -> float:
 #: Forecast of a scan's CPU time (``scan_cpu_forecast``), measured as process time of the
 #: workers on this project's machine with one numba thread.  CPU time (s) per particle and
 #: driving period of a ``diffusion_point`` or ``gk_point`` with compiled kernels: 0.43-0.67
-#: us at the quick settings of S3, S9 and B6, 0.32-0.36 us for the full S3 scan (whose
+#: us at the quick settings of S3, S9 and B6, 0.36 us for the full S3 scan (whose
 #: ensembles fast-forward more of their stick-release cycles).  Particles that stick for
 #: good cost nothing after they stick (Gamma <= 1): the forecast counts them all.
 POINT_PERIOD_CPU_S = 0.5e-6
