@@ -346,3 +346,16 @@ def test_committed_run_long_run_statistics():
         z = (r["mean_v"] - exact["mean_v"]) / math.hypot(r["stderr_mean_v"],
                                                           exact["stderr_mean_v"])  # fmt: skip
         assert abs(z) < 3
+
+
+def test_a_value_a_row_does_not_measure_prints_as_a_dash():
+    """A benchmark row without a column (e.g. evaluations of a peer integrator) prints "-",
+    never nan; a NaN value likewise; counts print 0."""
+    from bbdyn.reference.timing import ERROR_COLUMNS, format_rows
+
+    rows = [{"method": "exact", "setting": "s", "max_time_error_s": 1e-18,
+             "median_time_error_s": math.nan}]  # fmt: skip
+    head, line = format_rows(rows, ERROR_COLUMNS, 5)
+    assert "nan" not in line.lower()
+    cells = line.split()[2:]
+    assert cells == ["1.00e-18", "-", "-", "0", "-"]

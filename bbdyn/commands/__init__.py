@@ -17,7 +17,6 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import math
-import os
 import sys
 import time
 from collections.abc import Callable
@@ -105,14 +104,36 @@ def _writable_folder(text: str) -> Path:
         raise argparse.ArgumentTypeError(
             f"folder {folder} does not exist; create it first or choose an existing folder"
         )
-    if not os.access(folder, os.W_OK | os.X_OK):
+    if not _can_create_files_in(folder):
         raise argparse.ArgumentTypeError(f"folder {folder} is not writable; choose another folder")
     return path
 
 
+def _can_create_files_in(folder: Path) -> bool:
+    """Whether a file can be created in ``folder``, found by creating (and removing) one:
+    permission bits alone do not tell (root may write anywhere by them, but not in /proc;
+    a read-only file system)."""
+    import tempfile
+
+    try:
+        with tempfile.TemporaryFile(dir=folder):
+            return True
+    except OSError:
+        return False
+
+
+def output_folder(text: str) -> str:
+    """``--out DIR`` of the commands that write a folder of results (created if missing):
+    any path but an empty one (which would mean the current folder for some and the
+    default for others)."""
+    if not text.strip():
+        raise argparse.ArgumentTypeError("must name a folder, got an empty path")
+    return text
+
+
 #: ``--save NAME``: a result saved as NAME.npz and NAME.json in an existing folder.
 save_name = _writable_folder
-#: ``--plot PNG``, ``--out PNG``: a file in an existing folder.
+#: ``--plot PNG``, ``--out PNG``, ``--progress FILE``: a file in an existing folder.
 output_file = _writable_folder
 
 

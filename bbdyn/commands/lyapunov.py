@@ -19,7 +19,9 @@ JSON keys (docs/schema.md), both: ``version``, ``params``, ``seed``, ``model``, 
 ``window_cond_lam1_per_s`` (1/s) for the ensemble; ``attractors``: a list of the same keys
 with ``attractor``, ``fraction``, ``character``; ``regime``.  Flat (``model`` "flat"):
 ``lam1_per_s``, ``lam2_per_s`` and ``cond_...`` (1/s), ``..._per_impact``, each with
-``_se``; ``stuck_fraction``; ``impact_rate`` (1/s); ``window_cond_lam1_per_s``.
+``_se``; ``stuck_fraction``; ``impact_rate`` (1/s); ``window_cond_lam1_per_s``.  Both, with
+the window exponents (and for each attractor): ``window_chi2``, ``window_dof``, ``window_p``
+and ``windows_agree`` (``bbdyn.lyapunov.window_agreement``; false: a warning on stderr).
 """
 
 from bbdyn.commands import (
@@ -120,6 +122,16 @@ def billiard_summary(args) -> dict:
     return out
 
 
+def _pm(value: float, se: float, width: int = 0) -> str:
+    """``value +- se`` (the value right-aligned in ``width``, the error in 7 characters); the
+    value alone, padded alike, where the error is undefined (the exponent -inf of a collapse)."""
+    import math
+
+    if math.isnan(se):
+        return f"{value:>{width}.5g}" + " " * (11 if width else 0)
+    return f"{value:>{width}.5g} +- {se:<{7 if width else 0}.2g}"
+
+
 def _billiard_lines(s: dict) -> list[str]:
     lines = [
         f"billiard, f = {s['f']:g} Hz (Gamma = {s['gamma']:.4f}), n = {s['n']}, "
@@ -132,8 +144,8 @@ def _billiard_lines(s: dict) -> list[str]:
     ]
     for name, g in groups:
         lines.append(
-            f"{name:>30} {g['lam1_per_s']:>12.5g} +- {g['lam1_per_s_se']:<7.2g}"
-            f"{g['lam1_per_collision']:>14.5g} +- {g['lam1_per_collision_se']:<7.2g}"
+            f"{name:>30} {_pm(g['lam1_per_s'], g['lam1_per_s_se'], 12)}"
+            f"{_pm(g['lam1_per_collision'], g['lam1_per_collision_se'], 14)}"
             f"{g['collision_rate']:>13.5g}"
         )
     if "regime" in s:
@@ -150,17 +162,27 @@ def _flat_lines(s: dict) -> list[str]:
     ]
     for tag, unit in (("per_s", "1/s"), ("per_impact", "per impact")):
         for pre, what in (("", "exponents"), ("cond_", "conditional (between sticks)")):
-            vals = [
-                f"{s[f'{pre}lam{i}_{tag}']:.5g} +- {s[f'{pre}lam{i}_{tag}_se']:.2g}" for i in (1, 2)
-            ]
+            vals = [_pm(s[f"{pre}lam{i}_{tag}"], s[f"{pre}lam{i}_{tag}_se"]) for i in (1, 2)]
             lines.append(f"{what:>30} {unit:>10}: lam1 = {vals[0]}, lam2 = {vals[1]}")
     windows = ", ".join(f"{x:.4g}" for x in s["window_cond_lam1_per_s"])
     lines.append(f"conditional lam1 per window (1/s): {windows}")
     return lines
 
 
+def warn_drift(s: dict) -> None:
+    """One line on stderr when the window exponents disagree beyond their errors."""
+    import sys
+
+    if not s["windows_agree"]:
+        print(f"bbdyn lyapunov: warning: the {s['window_dof'] + 1} windows' exponents disagree "
+              f"beyond their errors (chi2 = {s['window_chi2']:.3g} for {s['window_dof']} dof, "
+              f"p = {s['window_p']:.2g}): not converged, try a longer --transient or --t",
+              file=sys.stderr)  # fmt: skip
+
+
 def run(args) -> int:
     s = lyapunov_summary(args)
+    warn_drift(s)
     if args.json:
         print_json(s)
         return 0

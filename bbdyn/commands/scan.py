@@ -29,6 +29,8 @@ from bbdyn.commands import (
     finite,
     json_output,
     model_values,
+    output_file,
+    output_folder,
     particles,
     print_json,
     report_written,
@@ -64,7 +66,7 @@ def add_arguments(parser) -> None:
         help="time before energy averages (s; default: t/5)",
     )
     parser.add_argument("--seed", type=seed, default=0, help="scan seed (default: 0)")
-    parser.add_argument("--out", required=True, help="scan folder")
+    parser.add_argument("--out", type=output_folder, required=True, help="scan folder")
     parser.add_argument("--resume", action="store_true", help="finish the scan already in --out")
     parser.add_argument(
         "--workers", type=int, default=None, help="local processes (default: all cores)"
@@ -76,8 +78,9 @@ def add_arguments(parser) -> None:
     )
     parser.add_argument("--json", action="store_true", help="print one JSON object")
     parser.add_argument(
-        "--progress", default=None, help="write progress lines to this file (default: stderr)"
-    )
+        "--progress", type=output_file, default=None,
+        help="append progress lines to this file, in an existing folder (default: stderr)",
+    )  # fmt: skip
 
 
 #: The numbers of a scan point in the JSON output (the keys of ``load_scan``, docs/schema.md).
@@ -106,12 +109,62 @@ def _show_warning(message, category, filename, lineno, file=None, line=None) -> 
     print(f"bbdyn scan: warning: {message}", file=sys.stderr)
 
 
+def resume_command(args) -> str:
+    """The command line that finishes the scan of ``args`` (``--resume`` once ``--out``
+    holds its manifest): the same grid, sizes, seed and model options."""
+    import shlex
+    from pathlib import Path
+
+    from bbdyn.scans.runner import MANIFEST
+
+    argv = ["bbdyn", "scan", "--f-start", repr(args.f_start), "--f-stop", repr(args.f_stop),
+            "--f-step", repr(args.f_step)]  # fmt: skip
+    argv += [f"--{k}={v!r}" for k, v in model_values(args).items() if v != PARAM_DEFAULTS[k]]
+    argv += ["--n", str(args.n), "--t", repr(args.t), "--seed", str(args.seed)]
+    if args.transient is not None:
+        argv += ["--transient", repr(args.transient)]
+    for option in ("workers", "scheduler", "progress"):
+        if getattr(args, option) is not None:
+            argv += [f"--{option}", str(getattr(args, option))]
+    argv += ["--out", args.out] + ["--json"] * args.json
+    return shlex.join(argv + ["--resume"] * (Path(args.out) / MANIFEST).exists())
+
+
+def saved_points(out: str) -> str:
+    """How many points of the scan in ``out`` are saved, e.g. ``3 of 10 points are saved``."""
+    import warnings
+
+    from bbdyn.scans.runner import load_scan
+
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")  # a damaged point is simply not counted
+            scan = load_scan(out, partial=True)
+    except (OSError, ValueError):  # no manifest yet, or a damaged one
+        return "no point is saved"
+    total = len(scan.meta["values"])
+    return f"{total - scan.meta['n_missing']} of {total} points are saved"
+
+
 def run(args) -> int:
     import sys
     import warnings
+    from pathlib import Path
 
+    from bbdyn.cli import Interrupted
     from bbdyn.scans.frequency import check_scan_size, frequency_grid, frequency_scan, grid_size
-    from bbdyn.scans.runner import ScanBusyError, ScanStorageError, SchedulerUnreachableError
+    from bbdyn.scans.runner import (
+        MANIFEST,
+        ScanBusyError,
+        ScanStorageError,
+        SchedulerUnreachableError,
+    )
+
+    if args.resume and not (Path(args.out) / MANIFEST).is_file():
+        raise ValueError(
+            f"--resume: {args.out} holds no scan to finish (no {MANIFEST}); check --out, "
+            "or leave out --resume to begin a new scan there"
+        )
 
     # size and arguments first: a refused scan allocates and writes nothing
     count = grid_size(args.f_start, args.f_stop, args.f_step)
@@ -142,6 +195,10 @@ def run(args) -> int:
                 progress=log if log else True,
                 model=model_values(args),
             )
+    except KeyboardInterrupt:
+        raise Interrupted(
+            f"{saved_points(args.out)} in {args.out}; finish the scan with: {resume_command(args)}"
+        ) from None
     except FileExistsError:
         raise ValueError(
             f"{args.out} already holds a scan: add --resume to finish it, or choose a new --out"

@@ -164,8 +164,8 @@ ERROR_COLUMNS = (
 def format_rows(rows: list[dict], columns, setting_width: int) -> list[str]:
     """Benchmark rows as plain-text lines: method, setting, then ``columns``.
 
-    ``columns`` holds ``(key, header, width, format)``; a missing value prints as
-    nan (0 for a column without a format: counts).
+    ``columns`` holds ``(key, header, width, format)``; a value the row does not measure
+    (missing, or NaN) prints as ``-`` (0 for a column without a format: counts).
     """
     head = f"{'method':<11} {'setting':<{setting_width}}"
     head += "".join(f" {title:>{width}}" for _, title, width, _ in columns)
@@ -174,6 +174,7 @@ def format_rows(rows: list[dict], columns, setting_width: int) -> list[str]:
         line = f"{r['method']:<11} {r['setting']:<{setting_width}}"
         for key, _, width, spec in columns:
             value = r.get(key, 0 if spec == "" else math.nan)
-            line += f" {value:>{width}{spec}}"
+            text = "-" if spec and math.isnan(value) else f"{value:{spec}}"
+            line += f" {text:>{width}}"
         lines.append(line)
     return lines

@@ -32,6 +32,10 @@ __all__ = ["gk_run", "gk_numbers", "gk_point", "gk_scan"]
 JUMPS_PER_S_GUESS = 8.0
 
 
+#: ``D_a_reason`` of ``gk_run`` when no particle moves after the transient.
+NO_MOTION = "no kinetic energy after the transient (E_x = E_y = 0): r = E_y / E_x is 0 / 0"
+
+
 def gk_run(
     params: Params,
     *,
@@ -114,7 +118,12 @@ def gk_run(
     D, D_err = res.D()
     summary = res.summary()
     ratio = energy_ratio(res["E_x"], res["E_y"])
-    analytic = analytic_diffusion(params, ratio.r, ratio.r_err)
+    if math.isnan(ratio.r):  # E_x = E_y = 0: nothing moves (e.g. A = 0), r is 0 / 0
+        from bbdyn.approx.random_walk import AnalyticDiffusion
+
+        analytic = AnalyticDiffusion(math.nan, math.nan, math.nan, NO_MOTION)
+    else:
+        analytic = analytic_diffusion(params, ratio.r, ratio.r_err)
     meta = make_meta(
         params,
         seed=seed,
