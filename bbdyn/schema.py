@@ -176,6 +176,10 @@ QUANTITIES: dict[str, tuple[str, str]] = {
     "cond_lam2_per_impact": ("", "conditional second exponent per impact (flat ball)"),
     "collapse_fraction": ("", "fraction of the particles whose tangent vector collapsed"),
     "window_cond_lam1_per_s": ("1/s", "conditional largest exponent of each time window"),
+    "window_chi2": ("", "chi^2 of the windows' mean exponents about their weighted mean"),
+    "window_dof": ("", "degrees of freedom of window_chi2 (windows - 1)"),
+    "window_p": ("", "p-value of window_chi2 (null if untested)"),
+    "windows_agree": ("", "whether window_p >= bbdyn.lyapunov.WINDOW_P_MIN: no drift detected"),
     # ---- flat ball: tongues and period doublings
     "tongues": ("", "one object per k: the k/1 tongue's edges"),
     "doublings": ("", "one object per k: the period-doubling cascade"),
