@@ -10,6 +10,9 @@ from pathlib import Path
 from bbdyn.sources import defines_kernels, digest_of, kernel_digest
 
 REPO = Path(__file__).resolve().parent.parent
+# the site's extensions (docs/_ext: the {data} references of the pages) for the tests that
+# check the pages' data
+sys.path.insert(0, str(REPO / "docs" / "_ext"))
 
 
 def numba_source_key(repo: Path) -> str:
