@@ -276,12 +276,12 @@ def test_energy_claims_in_results_md(f):
     E_scale = energy_scale(point["E"], params["g"], params["A"])
     scales = {"D": 0.0, "E": E_scale, "E_x": point["E_x"]}
     for key, scale in scales.items():
-        bound = 3 * math.hypot(point[f"{key}_err"], committed[f"{key}_err"][i])
+        bound = 3 * math.hypot(point[f"{key}_se"], committed[f"{key}_err"][i])
         bound += 2 * average_rounding(events, scale)
         assert abs(point[key] - committed[key][i]) <= bound, key
     ratio = point["E"] / point["E_reference"]
     if f == 70.0:
-        assert point["jump_rate"] > 0 and point["D"] > 3 * point["D_err"] and ratio > 2
+        assert point["jump_rate"] > 0 and point["D"] > 3 * point["D_se"] and ratio > 2
     else:
         d = meta["params"]["d"]
         assert point["jump_rate"] == 0 and abs(point["D"]) < d**2 / kwargs["t"] and ratio < 1
