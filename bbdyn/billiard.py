@@ -79,8 +79,7 @@ def state_from_section(
         raise ValueError(f"s must be in [0, s_max = {params.s_max}] mm, got {s}")
     if not 0.0 <= phase < 2.0 * math.pi:
         raise ValueError(f"phase must be in [0, 2 pi), got {phase}")
-    if tile != math.floor(tile):
-        raise ValueError(f"tile must be an integer, got {tile}")
+    _check_offset("tile", tile)
     kp = params.kernel()
     xi = xi_from_arc_length(s, kp)
     vyrel = vy + kp.A * kp.w * math.cos(phase)  # vy - u, u = -A w cos(phase)
@@ -234,8 +233,8 @@ def _check_state(params: Params, state0) -> tuple:
         if not math.isfinite(value):
             raise ValueError(f"{name} must be finite, got {value}")
     periods, phase, tile, xi, vx, vyrel = values
-    if periods != math.floor(periods) or tile != math.floor(tile):
-        raise ValueError(f"periods and tile must be integers, got {periods}, {tile}")
+    _check_offset("periods", periods)
+    _check_offset("tile", tile)
     if not 0.0 <= phase < 2.0 * math.pi:
         raise ValueError(f"phase must be in [0, 2 pi), got {phase}")
     if not abs(xi) <= params.d / 2:
@@ -243,6 +242,21 @@ def _check_state(params: Params, state0) -> tuple:
     if kind not in _KINDS:
         raise ValueError(f"kind must be one of {_KINDS} (IMPACT, STICK, RELEASE), got {kind!r}")
     return periods, phase, tile, xi, vx, vyrel, int(kind)
+
+
+def _check_offset(name: str, value: float) -> None:
+    """Refuse a whole-number offset (``periods``, ``tile``) that is not an integer, or one
+    of magnitude >= ``MAX_PERIODS`` = 2^52, beyond which the kernel's sums of the offset
+    and a fraction (a phase, a position in the tile) are no longer exact."""
+    from bbdyn.ensemble import MAX_PERIODS
+
+    if not abs(value) < MAX_PERIODS:
+        raise ValueError(
+            f"{name} must be an integer of magnitude < 2^52 = {MAX_PERIODS:.0f} (times and "
+            f"positions are whole numbers plus a fraction, exact below 2^52), got {value}"
+        )
+    if value != math.floor(value):
+        raise ValueError(f"{name} must be an integer, got {value}")
 
 
 def _derived(kp, arrays: dict[str, np.ndarray]) -> dict[str, np.ndarray]:

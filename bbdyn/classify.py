@@ -183,31 +183,41 @@ class Thresholds:
 
 
 # ---- features ------------------------------------------------------------------------------
-def _states_from(params, boxes, n, seed, initial, start_phase):
-    """Kernel states and the box index of every initial condition."""
+def _initial_sources(params, boxes, n, initial):
+    """The checked sources of the initial conditions, before anything is drawn:
+    ``(initial as an (m, 3) array or None, boxes or None, n per box, m in all)``."""
     if initial is not None:
         ics = np.array(initial, dtype=float, ndmin=2)
         if ics.ndim != 2 or ics.shape[1] != 3 or not np.all(np.isfinite(ics)):
             raise ValueError(f"initial must be a finite (n, 3) array, got shape {ics.shape}")
+        return ics, None, ics.shape[0], ics.shape[0]
+    n = check_n(n)
+    boxes = [reference_box(params)] if boxes is None else list(boxes)
+    if not boxes or not all(isinstance(b, Box) for b in boxes):
+        raise ValueError(f"boxes must be a non-empty list of Box, got {boxes!r}")
+    return None, boxes, n, n * len(boxes)
+
+
+def _states_from(params, ics, boxes, n, seed, start_phase):
+    """Initial conditions (``ics``, or ``n`` drawn from each box), their kernel states and
+    the box index of each."""
+    if ics is not None:
         box_index = np.full(ics.shape[0], -1)
     else:
-        n = check_n(n)
-        boxes = [reference_box(params)] if boxes is None else list(boxes)
-        if not boxes or not all(isinstance(b, Box) for b in boxes):
-            raise ValueError(f"boxes must be a non-empty list of Box, got {boxes!r}")
         # box 0 draws exactly as bbdyn.ensemble.ensemble(seed=seed); box j > 0 from (seed, j)
         seeds = [seed] + [None if seed is None else [seed, j] for j in range(1, len(boxes))]
-        ics = np.concatenate(
-            [initial_conditions(params, int(n), s, b) for s, b in zip(seeds, boxes, strict=True)]
-        )
-        box_index = np.repeat(np.arange(len(boxes)), int(n))
+        ics = np.concatenate([
+            initial_conditions(params, n, s, b, phase=start_phase)
+            for s, b in zip(seeds, boxes, strict=True)
+        ])  # fmt: skip
+        box_index = np.repeat(np.arange(len(boxes)), n)
     # post-collision states at phase start_phase: shift vy so that vyrel = vy - u(start_phase)
     u0, u1 = -params.A * params.w, -params.A * params.w * math.cos(start_phase)
     shifted = ics.copy()
     shifted[:, 2] += u0 - u1
     states = kernel_states(params, shifted)
     states[:, 1] = start_phase
-    return ics, states, box_index, boxes
+    return ics, states, box_index
 
 
 def trajectory_features(
@@ -281,12 +291,12 @@ def trajectory_features(
             f"transient = {transient} s leaves fewer than 2 of the {SAMPLES} displacement "
             f"samples in [transient, t = {t}] s; use transient <= {sample_times[-2]} s"
         )
-    ics, states, box_index, boxes = _states_from(params, boxes, n, seed, initial, start_phase)
-    # ---- the features run: chunked (Ctrl-C stops it between chunks), size checked
+    given, boxes, n, m = _initial_sources(params, boxes, n, initial)
+    # ---- the features run: size checked before the initial conditions are drawn, chunked
+    # (Ctrl-C stops it between chunks)
     from bbdyn.core.ensemble import CARRY_WIDTH, CNT_WIDTH
     from bbdyn.ensemble import new_carry
 
-    m = ics.shape[0]
     nbins = int(round(10.0 / th.hist_width)) + 1
     shapes = {
         "blocks": ((m, int(blocks), core.BF_WIDTH), float),
@@ -300,6 +310,7 @@ def trajectory_features(
     }
     limits = {"params": params, "n": m, "t": t}
     out, _ = allocate(shapes, extra=m * 8 * (CARRY_WIDTH + 3 * int(th.pmax)), limits=limits)
+    ics, states, box_index = _states_from(params, given, boxes, n, seed, start_phase)
     carry = new_carry(states, 0, int(th.pmax))
     s_periods, s_phase = periods_phase(sample_times, params.f)
     end = np.array([v[0] for v in periods_phase(np.array([t]), params.f)])

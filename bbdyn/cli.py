@@ -9,7 +9,8 @@ Every failure ends here, in ``main``, as an exit status and a message of at most
 three lines on stderr that names the problem and says what to do (``explain``):
 never a traceback, unless ``BBDYN_DEBUG=1`` asks for one.  Exit statuses: 0 done,
 1 the run failed (output path, memory, simulation, a bug), 2 bad input, 130
-interrupted, 141 (128 + SIGPIPE) when the reader of stdout went away.
+interrupted (a command that keeps its work, as ``scan``, says what it kept and the command
+that goes on: ``Interrupted``), 141 (128 + SIGPIPE) when the reader of stdout went away.
 """
 
 from __future__ import annotations
@@ -40,6 +41,11 @@ EXIT_FAILED, EXIT_USAGE = 1, 2
 EXIT_INTERRUPTED = 128 + signal.SIGINT
 EXIT_BROKEN_PIPE = 128 + signal.SIGPIPE
 DEBUG_VARIABLE = "BBDYN_DEBUG"
+
+
+class Interrupted(KeyboardInterrupt):
+    """Ctrl-C (or SIGTERM) in a command that says what it kept and how to go on: ``main``
+    prints ``interrupted: MESSAGE`` instead of ``interrupted``."""
 
 
 class Parser(argparse.ArgumentParser):
@@ -145,8 +151,9 @@ def main(argv: list[str] | None = None) -> int:
     except BrokenPipeError:
         _silence_stdout()
         raise SystemExit(EXIT_BROKEN_PIPE) from None
-    except KeyboardInterrupt:
-        print("interrupted", file=sys.stderr)
+    except KeyboardInterrupt as err:
+        said = f": {_one_line(err)}" if isinstance(err, Interrupted) else ""
+        print(f"interrupted{said}", file=sys.stderr)
         raise SystemExit(EXIT_INTERRUPTED) from None
     except Exception as err:
         if os.environ.get(DEBUG_VARIABLE) == "1":

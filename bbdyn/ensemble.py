@@ -8,7 +8,8 @@ collision and jump counts, optionally the jump sequences and a collision record.
 Initial conditions are post-collision states on the floor of tile 0 at t = 0,
 given as ``(s, vx+, vy+)``: arc length from the left wedge (mm) and absolute
 velocities (mm/s).  Particle ``i`` draws row ``i`` of one ``(n, 3)`` array of
-uniforms from ``np.random.default_rng(np.random.SeedSequence(seed))``, so its
+uniforms from ``np.random.default_rng(np.random.SeedSequence(seed))`` (drawn again
+from its own stream if that state moves into the arc, ``initial_conditions``), so its
 initial condition depends only on the seed and on ``i`` (not on ``n``, nor on
 the number of threads).
 
@@ -88,15 +89,68 @@ def reference_box(params: Params) -> Box:
     return Box(s=(0.0, params.s_max), vx=(-40.0, 40.0), vy=(0.0, 40.0))
 
 
-def initial_conditions(params: Params, n: int, seed, box: Box | None = None) -> np.ndarray:
-    """``n`` initial conditions ``(s, vx+, vy+)`` drawn uniformly from ``box``; shape (n, 3)."""
+#: Draws per batch, and most batches, when a particle's first draw from a box does not
+#: leave the floor (``initial_conditions``).
+REDRAW_BATCH, MAX_REDRAW_BATCHES = 64, 16
+
+
+def initial_conditions(
+    params: Params, n: int, seed, box: Box | None = None, *, phase: float = 0.0
+) -> np.ndarray:
+    """``n`` initial conditions ``(s, vx+, vy+)`` drawn uniformly from the part of ``box``
+    that leaves the floor; shape (n, 3).
+
+    Particle ``i`` takes row ``i`` of one ``(n, 3)`` array of uniforms from
+    ``np.random.default_rng(np.random.SeedSequence(seed))``.  A row whose velocity moves into
+    the arc relative to the floor at phase ``phase`` (rad; not a post-collision state: near
+    the wedges of a steep arc, R close to d/2) is drawn again from the particle's own
+    stream ``SeedSequence(entropy, spawn_key=(i,))`` until it leaves the floor.  So the
+    draws are uniform on the part of the box that leaves the floor, particle ``i`` still
+    depends only on the seed and ``i``, and where the whole box leaves the floor (the
+    reference box at the default R = 25 mm) the rows are the first draws.  ValueError if a
+    particle finds no such state in ``REDRAW_BATCH * MAX_REDRAW_BATCHES`` draws (a box
+    (almost) entirely moving into the floor).
+    """
     box = reference_box(params) if box is None else box
-    u = np.random.default_rng(np.random.SeedSequence(seed)).random((n, 3))
-    out = np.empty((n, 3))
+    entropy = np.random.SeedSequence(seed)
+    out = _box_points(box, np.random.default_rng(entropy).random((n, 3)))
+    u = -params.A * params.w * math.cos(phase)  # the floor's velocity
+    for i in np.flatnonzero(~_leaving_floor(params, out, u)):
+        stream = np.random.default_rng(
+            np.random.SeedSequence(entropy.entropy, spawn_key=(*entropy.spawn_key, int(i)))
+        )
+        for _ in range(MAX_REDRAW_BATCHES):
+            draws = _box_points(box, stream.random((REDRAW_BATCH, 3)))
+            good = np.flatnonzero(_leaving_floor(params, draws, u))
+            if good.size:
+                out[i] = draws[good[0]]
+                break
+        else:
+            raise ValueError(
+                f"box {box} has (almost) no post-collision states: particle {i} found none "
+                f"that leaves the floor in {REDRAW_BATCH * MAX_REDRAW_BATCHES} draws; choose "
+                "velocities that move away from the arc (vy+ above the floor's velocity "
+                f"{u:.4g} mm/s)"
+            )
+    return out
+
+
+def _box_points(box: Box, u: np.ndarray) -> np.ndarray:
+    """Points ``(s, vx, vy)`` of ``box`` from uniforms ``u`` in [0, 1), shape (m, 3)."""
+    out = np.empty(u.shape)
     out[:, 0] = box.s[0] + (box.s[1] - box.s[0]) * u[:, 0]
     out[:, 1] = box.vx[0] + (box.vx[1] - box.vx[0]) * u[:, 1]
     out[:, 2] = box.vy[1] - (box.vy[1] - box.vy[0]) * u[:, 2]  # in (lo, hi]
     return out
+
+
+def _leaving_floor(params: Params, ics: np.ndarray, u: float) -> np.ndarray:
+    """Which rows ``(s, vx+, vy+)`` of ``ics`` leave the floor moving at ``u`` (mm/s)."""
+    from bbdyn.core.ensemble import leaving_floor
+
+    ok = np.empty(ics.shape[0], dtype=np.bool_)
+    leaving_floor(ics, u, params.kernel(), ok)
+    return ok
 
 
 def kernel_states(params: Params, ics: np.ndarray) -> np.ndarray:
@@ -520,13 +574,13 @@ def ensemble(
     def advance(budget):
         core.run_ensemble(carry, budget, params.kernel(), times, obs, buffers)
 
-    start = time.perf_counter()
+    start, cpu_start = time.perf_counter(), time.process_time()
     with numba_threads(threads) as used_threads:
         run_chunked(
             advance, carry, status, end_periods[0] + end_phase[0] / (2 * math.pi),
             chunk_events=chunk_events, progress=progress,
         )  # fmt: skip
-    wall = time.perf_counter() - start
+    wall, cpu = time.perf_counter() - start, time.process_time() - cpu_start
     failed = failed_particles(status, ics, on_failure)
 
     t_window = (window[1] - window[0]) / params.f
@@ -559,6 +613,7 @@ def ensemble(
         params,
         seed=seed,
         wall_s=wall,
+        cpu_s=cpu,
         t=t,
         n=n,
         transient=transient,

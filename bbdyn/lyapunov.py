@@ -42,6 +42,49 @@ __all__ = [
 V_BOX_HI = 40.0
 
 
+#: Windows whose exponents disagree with p below this (chi^2 test, ``window_agreement``)
+#: are flagged: the exponent still drifts in time.
+WINDOW_P_MIN = 1e-3
+
+
+def window_agreement(growth: np.ndarray, elapsed: np.ndarray) -> dict:
+    """Do the windows give the same exponent within their errors?  A chi^2 test.
+
+    ``growth`` and ``elapsed`` (n particles, w windows): each particle's log growth and
+    its seconds (or events) in each window.  The particles with a finite exponent
+    ``growth / elapsed`` in every window give each window's mean and standard error; the
+    window means are tested against their weighted mean, chi^2 with w - 1 degrees of
+    freedom.  Returns ``window_chi2``, ``window_dof``, ``window_p`` (NaN when there is
+    nothing to compare: one window, fewer than two particles, or a window without
+    spread) and ``windows_agree`` (``window_p >= WINDOW_P_MIN``, True when untested).
+    """
+    from scipy.stats import chi2
+
+    with np.errstate(divide="ignore", invalid="ignore"):
+        lam = growth / elapsed
+    lam = lam[np.all(np.isfinite(lam), axis=1)]
+    n, w = lam.shape
+    out = {"window_chi2": math.nan, "window_dof": w - 1, "window_p": math.nan}
+    if n >= 2 and w >= 2:
+        var = lam.var(axis=0, ddof=1) / n
+        if np.all(var > 0):
+            mean = np.sum(lam.mean(axis=0) / var) / np.sum(1 / var)
+            out["window_chi2"] = float(np.sum((lam.mean(axis=0) - mean) ** 2 / var))
+            out["window_p"] = float(chi2.sf(out["window_chi2"], w - 1))
+    out["windows_agree"] = not out["window_p"] < WINDOW_P_MIN
+    return out
+
+
+def _check_windows(params: Params, t: float, windows: int) -> None:
+    """Refuse windows shorter than one driving period (nothing to measure in them)."""
+    if t * params.f < windows:
+        raise ValueError(
+            f"t = {t:g} s in {windows} windows leaves less than one driving period "
+            f"(1/f = {1 / params.f:.4g} s) per window: use t >= {windows / params.f:.4g} s "
+            "or fewer windows"
+        )
+
+
 def _mean_se(values: np.ndarray) -> tuple[float, float]:
     """Mean and standard error of the mean over the first axis (NaN-free input)."""
     n = values.shape[0]
@@ -100,7 +143,8 @@ class LyapunovResult(Result):
         ``lam1_per_impact`` ..., each ``-inf`` if any particle stuck; the same
         with ``cond_`` prefixed for the conditional exponents (over the
         particles with at least one impact carried); ``stuck_fraction``,
-        ``impacts_per_s`` (mean impact rate).
+        ``impacts_per_s`` (mean impact rate); the agreement of the windows'
+        conditional largest exponents (``window_agreement``).
         """
         out = {}
         stuck = self["collapses"].sum(axis=1) > 0
@@ -117,6 +161,7 @@ class LyapunovResult(Result):
         _, impacts, duration = self._totals()
         out["stuck_fraction"] = float(np.mean(stuck))
         out["impacts_per_s"] = float(np.sum(impacts) / np.sum(duration))
+        out.update(window_agreement(self["log_growth"][:, :, 0], self["duration"]))
         return out
 
     def plot(self, ax=None):
@@ -185,6 +230,7 @@ def flat_lyapunov_from(
     if not (math.isfinite(transient) and transient >= 0):
         raise ValueError(f"transient must be a finite number >= 0 s, got {transient}")
     windows = _check_count("windows", windows)
+    _check_windows(params, t, windows)
     phase0, vrel0 = (
         np.atleast_1d(np.asarray(phase0, float)),
         np.atleast_1d(np.asarray(vrel0, float)),
@@ -354,7 +400,8 @@ class BilliardLyapunovResult(Result):
         Keys ``lam1_per_s``, ``lam1_per_s_se`` (1/s), ``lam1_per_collision``,
         ``lam1_per_collision_se``: ``-inf`` (error NaN) if a particle collapsed; the same
         with ``cond_`` for the growth between collapses; ``collapse_fraction``,
-        ``collisions_per_s``, ``n``, ``window_cond_lam1_per_s`` (1/s, per window).
+        ``collisions_per_s``, ``n``, ``window_cond_lam1_per_s`` (1/s, per window) and their
+        agreement (``window_agreement``).
         """
         sel = np.ones(self["status"].shape, bool) if select is None else np.asarray(select)
         out = {"n": int(np.sum(sel))}
@@ -373,6 +420,7 @@ class BilliardLyapunovResult(Result):
         total = float(np.sum(duration[sel]))
         out["collisions_per_s"] = float(np.sum(collisions[sel]) / total) if total > 0 else math.nan
         out["window_cond_lam1_per_s"] = [float(x) for x in self.window_exponents(select=sel)]
+        out.update(window_agreement(self["log_growth"][sel], self["duration"][sel]))
         return out
 
     def by_attractor(self) -> list[dict]:
@@ -421,6 +469,7 @@ def billiard_lyapunov_from(
     if not (math.isfinite(transient) and transient >= 0):
         raise ValueError(f"transient must be a finite number >= 0 s, got {transient}")
     windows = _check_count("windows", windows)
+    _check_windows(params, t, windows)
     states = np.atleast_2d(np.asarray(states, float))
     if states.ndim != 2 or states.shape[1] != 7 or not np.all(np.isfinite(states)):
         raise ValueError(f"states must be a finite (n, 7) array, got shape {states.shape}")
@@ -494,6 +543,7 @@ def billiard_lyapunov(
     from bbdyn.ensemble import initial_conditions, kernel_states
 
     n = _check_count("n", n)
+    _check_windows(params, _check_positive("t", t, "s"), _check_count("windows", windows))
     start = time.perf_counter()
     labels = np.full(n, NOT_CLASSIFIED)
     if classify_attractors:

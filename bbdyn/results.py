@@ -16,6 +16,7 @@ from __future__ import annotations
 import contextlib
 import datetime as _dt
 import hashlib
+import importlib
 import json
 import os
 import platform
@@ -28,6 +29,7 @@ from typing import IO, Any, ClassVar
 import numpy as np
 
 __all__ = [
+    "KINDS",
     "DamagedResultError",
     "Result",
     "file_sha256",
@@ -40,11 +42,50 @@ __all__ = [
 
 _REGISTRY: dict[str, type[Result]] = {}
 
+#: Every kind of result bbdyn saves -> the module that defines its class.  ``load_result``
+#: imports that module when the kind is not registered yet, so a result loads in a fresh
+#: process without importing its module first (tests/test_results.py checks the table
+#: against the classes).
+KINDS = {
+    "green_kubo": "bbdyn.approx.green_kubo",
+    "billiard_trajectory": "bbdyn.billiard",
+    "trajectory_features": "bbdyn.classify",
+    "classification": "bbdyn.classify",
+    "flat_orbit_branch": "bbdyn.continuation",
+    "flat_doubling_cascades": "bbdyn.continuation",
+    "ensemble": "bbdyn.ensemble",
+    "flat_trajectory": "bbdyn.flatball",
+    "flat_ensemble": "bbdyn.flatball",
+    "flat_lyapunov": "bbdyn.lyapunov",
+    "billiard_lyapunov": "bbdyn.lyapunov",
+    "poincare": "bbdyn.poincare",
+    "scan_point": "bbdyn.scans.runner",
+    "scan": "bbdyn.scans.runner",
+    "statcost": "bbdyn.scans.statcost",
+    "scene_b1": "bbdyn.scenes.b1_regime_map",
+    "bench_billiard": "bbdyn.scenes.b2_billiard",
+    "bench_flat": "bbdyn.scenes.b2_flat",
+    "bench_scan_cost": "bbdyn.scenes.b2_scan_cost",
+    "scene_b4": "bbdyn.scenes.b4_higher_tongues",
+    "scene_b5": "bbdyn.scenes.b5_lyapunov",
+    "scene_b6": "bbdyn.scenes.b6_fine_structure",
+    "frequency_scan_scene": "bbdyn.scenes.frequency_scene",
+    "scene_s10": "bbdyn.scenes.s10_green_kubo",
+    "scene_s1": "bbdyn.scenes.s1_tongues",
+    "scene_s2": "bbdyn.scenes.s2_geometry",
+    "scene_s9": "bbdyn.scenes.s9_random_walk",
+    "flat_periodic_orbit": "bbdyn.tongues",
+    "flat_tongues": "bbdyn.tongues",
+}
 
-def make_meta(params=None, seed=None, wall_s=None, **extra: Any) -> dict[str, Any]:
+
+def make_meta(params=None, seed=None, wall_s=None, cpu_s=None, **extra: Any) -> dict[str, Any]:
     """Metadata common to all results: parameters, seed, version and source digest
-    (``bbdyn.sources.package_digest``), run time, machine."""
+    (``bbdyn.sources.package_digest``), run time (``wall_s`` wall-clock, ``cpu_s`` CPU time
+    of the process, seconds), machine, and ``units``: the unit of each key that has one
+    (``bbdyn.schema``)."""
     from bbdyn import __version__
+    from bbdyn.schema import units_of
     from bbdyn.sources import package_digest
 
     meta: dict[str, Any] = {
@@ -60,7 +101,10 @@ def make_meta(params=None, seed=None, wall_s=None, **extra: Any) -> dict[str, An
         meta["seed"] = seed
     if wall_s is not None:
         meta["wall_s"] = float(wall_s)
+    if cpu_s is not None:
+        meta["cpu_s"] = float(cpu_s)
     meta.update(extra)
+    meta["units"] = units_of({**meta, **meta.get("params", {})})
     return meta
 
 
@@ -145,8 +189,9 @@ def read_json(path: str | os.PathLike) -> Any:
 class Result:
     """Named arrays plus metadata, with ``save``, ``load`` and ``plot``.
 
-    Subclasses set ``kind`` (a unique string) and implement ``plot(ax=None)``;
-    they are registered automatically so ``load_result`` can rebuild them.
+    Subclasses set ``kind`` (a unique string, listed with its module in ``KINDS``) and
+    implement ``plot(ax=None)``; they are registered automatically so ``load_result`` can
+    rebuild them.
     """
 
     kind: ClassVar[str] = "result"
@@ -202,6 +247,8 @@ def load_result(path: str | os.PathLike) -> Result:
     if not isinstance(header, dict) or not isinstance(header.get("meta"), dict):
         raise DamagedResultError(f"{json_path} is not a saved result (no 'kind' and 'meta')")
     kind = header.get("kind")
+    if kind not in _REGISTRY and kind in KINDS:
+        importlib.import_module(KINDS[kind])
     if kind not in _REGISTRY:
         raise ValueError(f"{json_path}: unknown result kind {kind!r}")
     checksum = header.get("npz_sha256")  # absent in results saved before bbdyn recorded it

@@ -38,7 +38,8 @@ def bench_rows(tree: str, target: str, quick: bool, folder: Path) -> list[dict]:
     cmd = [sys.executable, "-m", "bbdyn", "bench", target, "--json", "--out", str(png)]
     out = subprocess.run(cmd + (["--quick"] if quick else []), env=env, cwd=cache,
                          capture_output=True, text=True, check=True)  # fmt: skip
-    return json.loads(out.stdout[: out.stdout.rindex("]") + 1])
+    data, _ = json.JSONDecoder().raw_decode(out.stdout.lstrip())
+    return data["rows"] if isinstance(data, dict) else data  # older trees print a bare list
 
 
 def exact_rows(run: list[dict], speed: str) -> list[dict]:

@@ -45,7 +45,8 @@ def worker(n: int, t: float) -> None:
         out = diffusion_point(f, point_seed(0, f), n=n, t=t)
         cpu = time.process_time() - cpu
         row = {"f": f, "cpu_s": cpu}
-        row.update({key: float(out[key]) for key in ("D", "D_err", "E", "E_x")})
+        row.update({key: float(out[key]) for key in ("D", "E", "E_x")})
+        row["D_err"] = float(out["D_se"] if "D_se" in out else out["D_err"])  # older trees
         print(json.dumps(row), flush=True)
 
 

@@ -23,15 +23,15 @@ ROOT = DOCS.parent
 # inherit the environment), whatever bbdyn is installed.
 sys.path.insert(0, str(ROOT))
 os.environ["PYTHONPATH"] = os.pathsep.join(filter(None, [str(ROOT), os.environ.get("PYTHONPATH")]))
-# The kernels draw with their inline backend (as in tests/test_notebooks.py).
+# The kernels draw with their inline backend (tests/test_notebooks.py checks the figures).
 os.environ.pop("MPLBACKEND", None)
 sys.path.insert(0, str(DOCS / "_ext"))
 
 import bbdyn  # noqa: E402
 
 project = "bbdyn"
-author = "bbdyn developers"
-copyright = "bbdyn developers"
+author = "the bbdyn developers"
+copyright = "2026, the bbdyn developers"
 version = release = bbdyn.__version__
 
 extensions = [
@@ -57,7 +57,7 @@ myst_enable_extensions = ["dollarmath", "colon_fence", "attrs_inline"]
 myst_heading_anchors = 3
 nb_execution_mode = "force"  # every build runs every notebook: figures and asserts are current
 nb_execution_raise_on_error = True
-nb_execution_timeout = 300  # s per cell, as in tests/test_notebooks.py
+nb_execution_timeout = 300  # s per cell
 nb_execution_show_tb = True
 
 # --- API reference -----------------------------------------------------------------------------

@@ -4,6 +4,8 @@ scripts, not a package)."""
 import importlib.util
 from pathlib import Path
 
+from extras import require
+
 ROOT = Path(__file__).resolve().parents[1]
 DERIVATIONS = ROOT / "derivations"
 BENCHMARKS = ROOT / "benchmarks"
@@ -17,7 +19,9 @@ def _load(label: str, path: Path):
 
 
 def load_derivation(name: str):
-    """Execute ``derivations/<name>.py`` and return it as a module."""
+    """Execute ``derivations/<name>.py`` and return it as a module (the test skips without
+    sympy, which the derivations need)."""
+    require("sympy", "derivations")
     return _load(f"derivation_{name}", DERIVATIONS / f"{name}.py")
 
 

@@ -124,7 +124,9 @@ def test_compute_rows_and_table(tmp_path):
     for row in rows:
         for key in ("method", "setting", "impacts_per_s", "collisions_per_s", "max_time_error_s"):
             assert key in row
-        assert row["collisions_per_s"] > 0
+        assert row["collisions_per_s"] > 0 and row["collisions_per_cpu_s"] > 0
+    assert "coll/s wall" in bench.table(res) and "coll/CPU-s" in bench.table(res)
+    assert all(p["collisions_per_cpu_s"] > 0 for p in res.meta["profile"])
     exact = rows[0]
     assert exact["max_time_error_s"] <= IMPACT_TIME_TOL and exact["wrong_contacts"] == 0
     fixed = [r for r in rows if r["method"] == "fixed_step"]
@@ -148,7 +150,7 @@ def test_bench_billiard_cli_json(tmp_path, capsys):
     assert (
         cli.main(["bench", "billiard", "--quick", "--json", "--out", str(tmp_path / "b.png")]) == 0
     )
-    rows = json.loads(capsys.readouterr().out)
+    rows = json.loads(capsys.readouterr().out)["rows"]
     assert rows[0]["method"] == "exact" and rows[0]["collisions_per_s"] > 0
     assert (tmp_path / "b.png").exists() and (tmp_path / "b.json").exists()
 

@@ -243,7 +243,7 @@ def test_bench_flat_json_rows_have_finite_fields(tmp_path, capsys, monkeypatch):
     png = tmp_path / "bench.png"
     argv = ["bench", "flat", "--quick", "--json", "--impacts", "6", "--long-run", "200"]
     assert cli.main([*argv, "--out", str(png)]) == 0
-    rows = json.loads(capsys.readouterr().out)
+    rows = json.loads(capsys.readouterr().out)["rows"]
     peers = {"heyoka"} if heyoka_available() else set()
     assert {r["method"] for r in rows} == {"exact", "fixed_step", "solve_ivp"} | peers
     for row in rows:
@@ -289,7 +289,10 @@ def test_committed_run_exact_map_is_at_rounding_level_and_fixed_step_at_dt_min()
     assert exact["max_time_error_s"] <= 16 * EPS * longest
     accel = params["g"] + params["A"] * (2 * math.pi * params["f"]) ** 2
     rounding_v = 4 * EPS * float(np.max(np.abs(run["ref_v"])))
-    assert exact["max_velocity_error"] <= accel * exact["max_time_error_s"] + rounding_v
+    # v+ = (1 + alpha) u - alpha v-: a time error dt moves u by at most A w^2 dt and v- by
+    # g dt, so v+ by at most (1 + alpha) (g + A w^2) dt
+    bound = (1 + params["alpha"]) * accel * exact["max_time_error_s"] + rounding_v
+    assert exact["max_velocity_error"] <= bound
     fixed = [r for r in rows if r["method"] == "fixed_step"]
     for r in fixed:
         assert r["max_time_error_s"] < r["dt_min"] and r["wrong_contacts"] == 0
@@ -300,14 +303,14 @@ def test_committed_run_exact_map_is_at_rounding_level_and_fixed_step_at_dt_min()
 
 
 def test_committed_run_default_tolerance_is_nearly_the_cheapest():
-    """Only the loosest stopping tolerance (1e-4) runs faster than the default, and the
-    default needs no more gap evaluations than 1e-7 to 1e-13; every tolerance's error is
-    within its documented bound."""
+    """The default (the Taylor finish) needs no more gap evaluations per impact than any
+    stopping tolerance from 1e-4 to 1e-13; every tolerance's error is within its documented
+    bound."""
     rows = _committed_flat().meta["rows"]
     loose = {r["step_rel"]: r for r in rows[2:6]}
-    assert [k for k, r in loose.items() if r["cost_ratio_to_exact"] < 1] == [1e-4]
+    assert sorted(loose) == [1e-13, 1e-10, 1e-7, 1e-4]
     default = rows[0]["gap_evals_per_impact"]
-    assert all(default <= loose[k]["gap_evals_per_impact"] for k in (1e-7, 1e-10, 1e-13))
+    assert all(default <= r["gap_evals_per_impact"] for r in loose.values())
     for r in loose.values():
         assert r["wrong_contacts"] == 0 and r["max_early_per_step_rel"] <= 1 + math.sqrt(2)
 
@@ -334,15 +337,28 @@ def test_committed_run_solve_ivp_and_heyoka():
 
 
 def test_committed_run_long_run_statistics():
-    """The fixed step's impact phases lie on a lattice, so they repeat (fewer distinct phases
-    than the exact map's, whose phases are all distinct but for at most one); the mean
-    post-impact velocity agrees within 3 combined standard errors."""
+    """The fixed step's impact phases lie on a lattice, so they repeat: over a hundred times
+    as many repeated phases as the exact map has; the mean post-impact velocity agrees within
+    3 combined standard errors."""
     long_run = _committed_flat().meta["long_run"]
     exact = long_run[0]
     assert exact["method"] == "exact"
-    assert exact["distinct_phases"] >= exact["n_impacts"] - 1
+    exact_repeats = exact["n_impacts"] - exact["distinct_phases"]
     for r in long_run[1:]:
-        assert r["distinct_phases"] < exact["distinct_phases"]
+        assert r["n_impacts"] - r["distinct_phases"] > 100 * max(exact_repeats, 1)
         z = (r["mean_v"] - exact["mean_v"]) / math.hypot(r["stderr_mean_v"],
                                                           exact["stderr_mean_v"])  # fmt: skip
         assert abs(z) < 3
+
+
+def test_a_value_a_row_does_not_measure_prints_as_a_dash():
+    """A benchmark row without a column (e.g. evaluations of a peer integrator) prints "-",
+    never nan; a NaN value likewise; counts print 0."""
+    from bbdyn.reference.timing import ERROR_COLUMNS, format_rows
+
+    rows = [{"method": "exact", "setting": "s", "max_time_error_s": 1e-18,
+             "median_time_error_s": math.nan}]  # fmt: skip
+    head, line = format_rows(rows, ERROR_COLUMNS, 5)
+    assert "nan" not in line.lower()
+    cells = line.split()[2:]
+    assert cells == ["1.00e-18", "-", "-", "0", "-"]

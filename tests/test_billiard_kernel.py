@@ -316,6 +316,36 @@ def test_simulate_refuses_bad_input(kwargs, match):
         simulate(P, n_events=10, **kwargs)
 
 
+def _offset_run(periods, tile):
+    """Event times (periods from the start, with the phase) and tiles moved from the start of
+    a run begun ``periods`` periods and ``tile`` tiles on."""
+    state = state_from_section(P, 0.7, 10.0, 30.0)
+    run = simulate(P, n_events=200, state0=(periods, state[1], tile, *state[3:]))
+    return (run["periods"] - periods, run["phase"], run["tile"] - tile, run["xi"])
+
+
+@pytest.mark.parametrize("offset", [2.0**40, 2.0**52 - 2.0**10, -(2.0**52) + 2.0**10])
+def test_offsets_below_2_to_the_52_give_the_same_run(offset):
+    """Time and space are homogeneous: a run begun any whole number of periods and tiles on
+    (below 2^52) has the same event times and tile changes, bit for bit."""
+    for got, want in zip(_offset_run(offset, offset), _offset_run(0.0, 0.0), strict=True):
+        np.testing.assert_array_equal(got, want)
+
+
+@pytest.mark.parametrize("name", ["periods", "tile"])
+@pytest.mark.parametrize("offset", [2.0**52, -(2.0**52), 2.0**53, 1e300])
+def test_offsets_beyond_2_to_the_52_are_refused(name, offset):
+    """At 2^53 a period more is no longer a float (the times above come out wrong with status
+    ok); from 2^52 sums of the offset and a fraction are inexact: refused, naming the offset."""
+    state = list(state_from_section(P, 0.7, 10.0, 30.0))
+    state[0 if name == "periods" else 2] = offset
+    with pytest.raises(ValueError, match=f"{name} must be an integer of magnitude < 2\\^52"):
+        simulate(P, n_events=10, state0=tuple(state))
+    if name == "tile":
+        with pytest.raises(ValueError, match="tile must be an integer of magnitude < 2\\^52"):
+            state_from_section(P, 0.7, 10.0, 30.0, tile=offset)
+
+
 def test_simulate_refuses_bad_n_events():
     with pytest.raises(ValueError, match="n_events must be"):
         simulate(P, n_events=0, s0=0.5, vx0=1.0, vy0=10.0)

@@ -133,10 +133,11 @@ def test_classify_command_json(capsys):
 
 
 # ---- constructed features: known attractors, known D --------------------------------------
-def _constructed(times, disp, unsettled=(), nb=16, L=10.0, counts=None):
+def _constructed(times, disp, unsettled=(), nb=16, L=10.0, counts=None, hotter=()):
     """Features of ``disp.shape[0]`` trajectories that all agree on every compared average,
     except ``unsettled`` ones, whose collision rate triples from the first to the second half
-    of the window (so they fail the settling test).  Window ``[t / 2, t]``.  Every block of
+    of the window (so they fail the settling test), and ``hotter`` ones, whose E_x is 600
+    instead of 300 kg mm^2/s^2 (a second attractor).  Window ``[t / 2, t]``.  Every block of
     ``L`` periods holds 10 collisions, all locked flights, and 2 jumps, unless ``counts``
     (``{BF_* column: per-block value}``, a value of shape (n, 1) per trajectory) says
     otherwise."""
@@ -152,6 +153,7 @@ def _constructed(times, disp, unsettled=(), nb=16, L=10.0, counts=None):
     for col, value in (counts or {}).items():
         blocks[..., col] = value
     blocks[list(unsettled), nb // 2 :, core.BF_COLL] = 30.0
+    blocks[list(hotter), :, core.BF_EX] = 600.0 * block_s
     th = Thresholds()
     arrays = {
         "blocks": blocks,
@@ -201,6 +203,30 @@ def test_attractor_D_of_a_persistent_walk_is_the_long_time_D():
     for D, se in zip(w["D"], w["D_se"], strict=True):
         assert abs(D - D_inf) <= 4 * se
     assert att == {**att, **attractor_D(times, disp)}
+
+
+def test_each_attractor_has_the_D_of_its_own_members():
+    """Two attractors (E_x 300 and 600) and unsettled trajectories of both kinds: each
+    attractor's D is the long-time D of its own walks (closed form, persistence p = 0.8
+    against uncorrelated jumps, D_inf 18 against 4.5 mm^2/s), not the D of all trajectories,
+    and the mean of its members' own slopes."""
+    d, tau = 1.5, 0.25
+    D_0 = d**2 / (2 * tau)
+    walks = {p: _persistent_walk(n=500, steps=2000, p=p, d=d, tau=tau, seed=s)
+             for p, s in ((0.8, 3), (0.5, 4))}  # fmt: skip
+    times = walks[0.8][0]
+    disp = np.concatenate([walks[0.8][1], walks[0.5][1]])
+    unsettled = [*range(490, 500), *range(990, 1000)]
+    c = classify_features(_constructed(times, disp, unsettled, hotter=range(500, 1000)))
+    s = c.summary
+    assert s["unsettled_fraction"] == 0.02 and len(s["attractors"]) == 2
+    for a, (p, first) in enumerate(((0.8, 0), (0.5, 500))):
+        members = np.flatnonzero(c["labels"] == a)
+        assert members.tolist() == list(range(first, first + 490))
+        att = s["attractors"][a]
+        q = 2 * p - 1
+        assert abs(att["D"] - D_0 * (1 + q) / (1 - q)) <= 4 * att["D_se"]
+        assert att["D"] == pytest.approx(np.mean(c["D"][members]), rel=1e-9)
 
 
 def test_basin_fractions_count_unsettled_trajectories():

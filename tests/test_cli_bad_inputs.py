@@ -29,6 +29,9 @@ ERROR, RESULT = "error", "result"
 SIM = ["--n", "4", "--t", "1"]  # tiny runs: a case costs well under a second
 CL = ["classify", "--f", "85.2", "--n", "4", "--t", "2"]
 BENCH = ["bench", "flat", "--quick", "--impacts", "2", "--long-run", "50"]  # a valid small run
+LY = ["--n", "2", "--t", "0.3", "--transient", "0.1"]
+STEEP = ["--n", "40", "--t", "1", "--R", "1.001"]
+SCAN = ["scan", "--f-start", "60", "--f-stop", "60", *SIM, "--out", "{tmp}/scan"]
 GK_F1 = repr(math.sqrt(9800.0 / 0.1) / (2 * math.pi))  # Gamma = 1 exactly, at the defaults
 
 #: (name, argv, expected outcome); "{tmp}" is replaced by a fresh temporary folder.
@@ -154,6 +157,30 @@ CASES: list[tuple[str, list[str], str]] = [
     ("bench-impacts-1e12", ["bench", "flat", "--quick", "--impacts", "1000000000000"], ERROR),
     ("bench-out-missing-folder", [*BENCH, "--out", "{tmp}/no/b.png"], ERROR),
     ("bench-out-under-file", [*BENCH, "--out", "/dev/null/b.png"], ERROR),
+    ("bench-out-proc", [*BENCH, "--out", "/proc/bbdyn_b.png"], ERROR),
+    # ---- sizes are checked before the initial conditions are drawn
+    ("classify-n-1e9", ["classify", "--f", "85.2", "--n", "1000000000", "--t", "1"], ERROR),
+    # ---- steep wedges, R = 1.001 d/2: the default box draws states that leave the floor
+    # (40 particles: about 8 % of the box's states move into the arc there)
+    ("sim-R-steep", ["simulate", "--f", "85.2", *STEEP, "--json"], RESULT),
+    ("gk-R-steep", ["gk", "--f", "85.2", *STEEP, "--json"], RESULT),
+    ("classify-R-steep", ["classify", "--f", "85.2", *STEEP, "--t", "2", "--json"], RESULT),
+    ("lyapunov-R-steep", ["lyapunov", "--f", "85.2", *LY, "--n", "40", "--R", "1.001"], RESULT),
+    ("scan-R-steep", [*SCAN, *STEEP, "--workers", "1", "--json"], RESULT),
+    # ---- nothing moves (A = 0): r = E_y / E_x is 0 / 0, D_a undefined with its reason
+    ("gk-A-0", ["gk", "--f", "85.2", *SIM, "--A", "0", "--json"], RESULT),
+    ("gk-A-0-text", ["gk", "--f", "85.2", *SIM, "--A", "0"], RESULT),
+    # ---- lyapunov: windows shorter than a driving period measure nothing
+    ("lyapunov-t-1e-300", ["lyapunov", "--f", "85.2", "--n", "2", "--t", "1e-300"], ERROR),
+    ("lyapunov-t-below-windows", ["lyapunov", "--f", "85.2", "--n", "2", "--t", "0.04"], ERROR),
+    ("lyapunov-flat-t-1e-300", ["lyapunov", "--flat", "--f", "85.2", "--t", "1e-300"], ERROR),
+    # ---- output paths: never empty, the same for every command
+    ("scan-out-empty", ["scan", "--f-start", "60", "--f-stop", "60", *SIM, "--out", ""], ERROR),
+    ("scene-out-empty", ["scene", "S1", "--out", ""], ERROR),
+    ("reproduce-out-empty", ["reproduce", "--only", "S1", "--out", ""], ERROR),
+    ("scan-progress-empty", [*SCAN, "--progress", ""], ERROR),
+    ("scan-progress-missing-folder", [*SCAN, "--progress", "{tmp}/no/log"], ERROR),
+    ("scan-resume-nothing", [*SCAN, "--resume"], ERROR),
 ]
 
 #: Outcome categories of the tally, in print order.
@@ -220,7 +247,10 @@ def fill(argv: list[str], tmp: Path) -> list[str]:
 
 
 @pytest.mark.parametrize(("argv", "expected"), [c[1:] for c in CASES], ids=[c[0] for c in CASES])
-def test_bad_input_gives_a_clear_error_or_a_valid_result(argv, expected, tmp_path, capsys):
+def test_bad_input_gives_a_clear_error_or_a_valid_result(
+    argv, expected, tmp_path, capsys, monkeypatch
+):
+    monkeypatch.chdir(tmp_path)  # an empty output path must not write into the checkout
     argv = fill(argv, tmp_path)
     code = run_main(argv)
     out, err = capsys.readouterr()

@@ -196,5 +196,5 @@ def test_python_m_bbdyn_is_the_cli():
     bad = _run("simulate", "--f", "nan")
     assert bad.returncode == cli.EXIT_USAGE and "--f" in bad.stderr
     assert "Traceback" not in bad.stderr
-    rows = json.loads(_run("tongues", "--kmax", "2", "--closed-form", "--json").stdout)
-    assert [r["k"] for r in rows] == [1, 2]
+    out = json.loads(_run("tongues", "--kmax", "2", "--closed-form", "--json").stdout)
+    assert [r["k"] for r in out["tongues"]] == [1, 2]

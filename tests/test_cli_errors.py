@@ -61,6 +61,16 @@ def test_save_onto_a_folder_is_refused(tmp_path, capsys):
     assert f"{tmp_path} is a folder" in short_message(capsys.readouterr().err)[0]
 
 
+def test_an_unwritable_folder_is_refused_before_the_run(monkeypatch, capsys):
+    """/proc exists and its permission bits let root write, but no file can be made there:
+    refused while the command line is parsed, before the benchmark runs."""
+    import bbdyn.scenes
+
+    monkeypatch.setattr(bbdyn.scenes, "run_scene", lambda *a, **k: pytest.fail("it ran"))
+    assert run_main(["bench", "flat", "--quick", "--out", "/proc/bbdyn_b.png"]) == 2
+    assert "folder /proc is not writable" in short_message(capsys.readouterr().err)[0]
+
+
 @pytest.mark.parametrize("json_mode", [False, True], ids=["text", "json"])
 def test_save_says_where_it_saved(tmp_path, capsys, json_mode):
     name = tmp_path / "run"
@@ -87,9 +97,10 @@ def test_no_space_left_names_the_files_and_says_what_to_do(tmp_path, capsys, mon
 
 
 def test_unwritable_path_in_an_existing_folder(capsys):
-    """/proc accepts no new files, even for root: the OSError of the write names the path."""
-    assert run_main([*SIM, "--save", "/proc/bbdyn_test_run"]) == 1
-    assert "/proc/bbdyn_test_run.npz" in short_message(capsys.readouterr().err)[0]
+    """/proc accepts no new files, even for root: refused before the run, naming the folder
+    (a write that fails later names its files: test_no_space_left_...)."""
+    assert run_main([*SIM, "--save", "/proc/bbdyn_test_run"]) == 2
+    assert "folder /proc is not writable" in short_message(capsys.readouterr().err)[0]
 
 
 def test_classify_plot_into_a_missing_folder_is_refused_before_the_run(tmp_path, capsys):

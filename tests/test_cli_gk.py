@@ -35,7 +35,8 @@ def test_gk_at_gamma_at_most_one_reports_the_trapped_result(f, capsys):
     assert abs(out["D"]) < ZERO_D
     assert out["D_a"] is None and "Gamma" in out["D_a_reason"]
     assert out["gamma"] == Params(f=f).gamma
-    assert "trapped" in out["trapped"] and "never leaves the floor" in out["trapped"]
+    assert out["trapped"] is True
+    assert "trapped" in out["trapped_reason"] and "never leaves the floor" in out["trapped_reason"]
 
 
 def test_gk_text_at_gamma_below_one_says_trapped_and_tau_infinite(capsys):
@@ -48,7 +49,7 @@ def test_gk_text_at_gamma_below_one_says_trapped_and_tau_infinite(capsys):
 def test_gk_above_gamma_one_is_not_called_trapped(capsys):
     assert run_main(["gk", "--f", "85.2", "--n", "6", "--t", "3", "--nmax", "2", "--json"]) == 0
     out = strict_json(capsys.readouterr().out)
-    assert out["n_jumps"] > 0 and out["trapped"] == ""
+    assert out["n_jumps"] > 0 and out["trapped"] is False and out["trapped_reason"] == ""
 
 
 def test_energy_ratio_without_horizontal_motion_is_infinite():

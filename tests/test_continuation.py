@@ -193,7 +193,7 @@ def test_doublings_command_json_is_the_cascade(capsys):
     import json
 
     assert _cli(["doublings", "--alpha", "0.4", "--kmax", "2", "--levels", "4", "--json"]) == 0
-    rows = json.loads(capsys.readouterr().out)
+    rows = json.loads(capsys.readouterr().out)["doublings"]
     assert [r["k"] for r in rows] == [1, 2]
     for r in rows:
         gammas, status, _, _ = cascade(r["k"], 0.4, 4)

@@ -8,14 +8,12 @@ reference without building the site, so a page whose data file or key is gone fa
 from __future__ import annotations
 
 import json
-import sys
 from pathlib import Path
 
+import datavalue  # docs/_ext, on the path by conftest.py
 import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT / "docs" / "_ext"))
-import datavalue  # noqa: E402
 
 
 def _texts():

@@ -4,12 +4,14 @@ import math
 
 import numpy as np
 import pytest
-import sympy as sp
 from derivation_loader import load_derivation
+from extras import require
 
 from bbdyn import Params
 from bbdyn.approx.random_walk import analytic_diffusion
 from bbdyn.core.tolerances import CLOSED_FORM_REL
+
+sp = require("sympy", "derivations")
 
 
 @pytest.fixture(scope="module")

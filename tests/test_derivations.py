@@ -4,8 +4,8 @@ import math
 
 import numpy as np
 import pytest
-import sympy as sp
 from derivation_loader import load_derivation
+from extras import require
 
 from bbdyn import Params
 from bbdyn.core.flat_jacobian import flat_map_jacobian
@@ -16,6 +16,8 @@ from bbdyn.tongues import (
     tongue_gamma_hi,
     tongue_gamma_lo,
 )
+
+sp = require("sympy", "derivations")
 
 D = load_derivation("flat_tongues")
 

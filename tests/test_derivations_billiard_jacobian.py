@@ -13,14 +13,16 @@ import math
 
 import numpy as np
 import pytest
-import sympy as sp
 from derivation_loader import load_derivation
+from extras import require
 
 from bbdyn import Params
 from bbdyn.core.billiard_tangent import billiard_tangent_event, billiard_tangent_run
 from bbdyn.core.status import IMPACT, OK
 from bbdyn.core.tangent import TangentWindows
 from bbdyn.tongues import k1_orbit
+
+sp = require("sympy", "derivations")
 
 D = load_derivation("billiard_orbit_jacobian")
 FLAT = load_derivation("flat_tongues")

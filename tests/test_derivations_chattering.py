@@ -5,13 +5,15 @@ import math
 
 import numpy as np
 import pytest
-import sympy as sp
 from derivation_loader import load_derivation
+from extras import require
 
 from bbdyn import Params
 from bbdyn.core.billiard import chatter_sum
 from bbdyn.core.flat import chatter_time
 from bbdyn.core.plate import sin_cos
+
+sp = require("sympy", "derivations")
 
 N_ULP = 4  # the kernels and the derived forms order the same operations differently
 

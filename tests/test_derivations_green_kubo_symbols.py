@@ -3,11 +3,13 @@ derivations/green_kubo_symbols.py (symbols relative to h_0)."""
 
 import numpy as np
 import pytest
-import sympy as sp
 from derivation_loader import load_derivation
+from extras import require
 
 from bbdyn.approx import JumpData, green_kubo
 from bbdyn.approx.green_kubo import _series, _words
+
+sp = require("sympy", "derivations")
 
 N = 3
 

@@ -95,8 +95,8 @@ def test_scan_point_fits_the_late_half_of_a_walk_with_a_transient():
     times = np.linspace(0.0, 20.0, 201)
     x = _changing_walk(rng, 3000, times, D_early=4.0, D_late=1.0, t_switch=10.0)
     out = diffusion_fit(times, x, np.random.SeedSequence(1), n_boot=50)
-    assert abs(out["D"] - 1.0) < 4 * out["D_err"]
-    assert abs(out["D"] - 4.0) > 20 * out["D_err"]
+    assert abs(out["D"] - 1.0) < 4 * out["D_se"]
+    assert abs(out["D"] - 4.0) > 20 * out["D_se"]
     # the early window would find the early D: the walk is what it claims to be
     D_early, se_early = einstein_D(times, x, window=(0.0, 0.5))
     assert abs(D_early - 4.0) < 4 * se_early
@@ -117,5 +117,5 @@ def test_scan_point_D_is_einstein_D_over_the_late_window_of_its_own_data():
     res = ensemble(Params(f=f), n=n, t=t, seed=seed, sample_times=times)
     D, se = einstein_D(times, res["displacement"], window=(0.5, 1.0))
     assert out["trapped"] == 0
-    assert (out["D"], out["D_err"]) == (D, se)
+    assert (out["D"], out["D_se"]) == (D, se)
     np.testing.assert_array_equal(out["msd"], np.mean(res["displacement"] ** 2, axis=0))

@@ -10,6 +10,7 @@ import re
 import subprocess
 from pathlib import Path
 
+import datavalue  # docs/_ext, on the path by conftest.py
 import pytest
 
 from bbdyn.params import Params
@@ -29,7 +30,7 @@ def section(text: str, heading: str) -> str:
 def table_rows(text: str) -> list[list[str]]:
     """Cells of the markdown table rows in ``text`` (header and separator rows dropped)."""
     rows = [
-        [c.strip() for c in line.strip().strip("|").split("|")]
+        [c.strip() for c in re.split(r"(?<!\\)\|", line.strip().strip("|"))]
         for line in text.splitlines()
         if line.strip().startswith("|")
     ]
@@ -87,11 +88,13 @@ def test_derived_values_equal_params():
     checked = 0
     for _symbol, _definition, value, prop in rows:
         getattr(p, prop.strip("`"))  # every named property exists
-        number = re.match(r"([0-9.]+) ", value)
-        if number is None:
+        reference = datavalue.IN_TEXT.search(value)
+        if reference is None:
             continue
-        digits = len(number.group(1).split(".")[1])
-        assert round(getattr(p, prop.strip("`")), digits) == float(number.group(1)), prop
+        # the page's value is the data's, and the data is the property's
+        match = datavalue.REFERENCE.match(reference.group(1).replace("\\|", "|"))
+        stated = datavalue.lookup(match["file"], match["key"])
+        assert stated == pytest.approx(getattr(p, prop.strip("`")), rel=1e-12), prop
         checked += 1
     assert checked == 3
 

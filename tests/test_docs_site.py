@@ -3,7 +3,8 @@ and shows what it claims: every notebook with its figures, the quickstart's outp
 committed figure in the gallery with what its JSON records, every public module in the API
 reference.
 
-One build (about 2 minutes on 2 cores, most of it running the notebooks) serves all tests.
+One build (the session fixture ``site`` of conftest.py: about 2 minutes on 2 cores, most of it
+running the notebooks) serves all tests, those of tests/test_notebooks.py included.
 """
 
 from __future__ import annotations
@@ -11,15 +12,12 @@ from __future__ import annotations
 import html
 import json
 import re
-import subprocess
-import sys
 from pathlib import Path
 
 import pytest
+from extras import require_docs_toolchain
 
-NO_TOOLCHAIN = "the docs toolchain is not installed: pip install -e '.[docs]'"
-for _name in ("sphinx", "myst_nb", "numpydoc", "pydata_sphinx_theme"):
-    pytest.importorskip(_name, reason=NO_TOOLCHAIN)
+require_docs_toolchain()
 
 from bbdyn.scenes import scene_module  # noqa: E402
 
@@ -30,16 +28,6 @@ FIGURES = DOCS / "figures"
 #: modules that are not part of the Python API: the command line, the one module per scene
 #: (``bbdyn.scenes.s1_tongues`` ...; the gallery shows them)
 NOT_API = re.compile(r"bbdyn\.(__main__|cli|commands)(\.|$)|bbdyn\.scenes\.[sb]\d+_")
-
-
-@pytest.fixture(scope="module")
-def site(tmp_path_factory) -> Path:
-    """The HTML site, built as the README says (sphinx-build -W --keep-going -b html)."""
-    out = tmp_path_factory.mktemp("site")
-    command = [sys.executable, "-m", "sphinx", "-W", "--keep-going", "-q", "-b", "html"]
-    proc = subprocess.run([*command, str(DOCS), str(out)], capture_output=True, text=True)
-    assert proc.returncode == 0, proc.stderr[-6000:]
-    return out
 
 
 def text_of(fragment: str) -> str:

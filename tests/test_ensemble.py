@@ -59,6 +59,81 @@ def test_initial_conditions_depend_only_on_seed_and_index():
     assert not np.array_equal(many, initial_conditions(p, 1000, 4))
 
 
+# ---- steep wedges: a box draws only the states that leave the floor -------------------------
+def _box_draw(p, seed, n):
+    """The reference box scaled from the seed's uniforms, written out independently."""
+    u = np.random.default_rng(np.random.SeedSequence(seed)).random((n, 3))
+    return np.column_stack([p.s_max * u[:, 0], -40.0 + 80.0 * u[:, 1], 40.0 - 40.0 * u[:, 2]])
+
+
+def _leaves_floor(p, ics):
+    """Normal velocity relative to the floor (at t = 0, velocity -A w) > 0, from the arc's
+    outward normal (xi, sqrt(R^2 - xi^2)) / R."""
+    xi, _ = _xi_and_b(p, ics[:, 0])
+    return ics[:, 1] * xi + (ics[:, 2] + p.A * p.w) * np.sqrt(p.R**2 - xi**2) > 0
+
+
+def test_reference_box_at_the_default_R_is_the_plain_uniform_draw():
+    """At R = 25 mm every state of the reference box leaves the floor: the initial conditions
+    are the seed's uniforms scaled to the box, bit for bit, and so are the runs from them."""
+    p = Params(f=85.2)
+    expected = _box_draw(p, 7, 5000)
+    assert np.all(_leaves_floor(p, expected))
+    np.testing.assert_array_equal(initial_conditions(p, 5000, 7), expected)
+    drawn = ensemble(p, n=8, t=2.0, seed=7, threads=1)
+    given = ensemble(p, initial=expected[:8], t=2.0, threads=1)
+    assert drawn.D() == given.D()
+
+
+def test_steep_wedge_box_draws_uniformly_from_the_states_that_leave_the_floor():
+    """R = 1.001 d/2: some states of the reference box move into the arc near the wedges.
+    Those are drawn again (the others are the plain draw's), every state leaves the floor,
+    the redrawn ones are uniform on the part of the box that does (means of a large
+    independent accepted sample), and a particle depends only on the seed and its index."""
+    from bbdyn.billiard import state_from_section
+
+    p = Params(f=85.2, R=1.001)
+    ics, plain = initial_conditions(p, 20000, 5), _box_draw(p, 5, 20000)
+    kept = _leaves_floor(p, plain)
+    assert 0.01 < np.mean(~kept) < 0.5
+    np.testing.assert_array_equal(ics[kept], plain[kept])
+    assert np.all(_leaves_floor(p, ics))
+    for s, vx, vy in ics[~kept][:100]:  # the single-trajectory API's own check agrees
+        state_from_section(p, s, vx, vy)
+    reference = _box_draw(p, 6, 400_000)
+    reference = reference[_leaves_floor(p, reference)]
+    redrawn = ics[~kept]
+    for c in range(3):
+        err = np.hypot(reference[:, c].std() / math.sqrt(redrawn.shape[0]),
+                       reference[:, c].std() / math.sqrt(reference.shape[0]))  # fmt: skip
+        assert abs(redrawn[:, c].mean() - reference[:, c].mean()) < 4 * err, c
+    np.testing.assert_array_equal(initial_conditions(p, 300, 5), ics[:300])
+
+
+def test_steep_wedge_trajectories_stay_above_the_floor():
+    """Trajectories from the steep-wedge box (R = 1.001 d/2) never cross the floor between
+    their recorded contacts (tests/billiard_checks.py), and time runs forward."""
+    from billiard_checks import flight_violations
+
+    from bbdyn.billiard import simulate
+
+    p = Params(f=85.2, R=1.001)
+    for s, vx, vy in initial_conditions(p, 6, 2):
+        run = simulate(p, n_events=400, s0=s, vx0=vx, vy0=vy)
+        worst_in, worst_end, back = flight_violations(
+            *(run[k] for k in ("periods", "phase", "xi", "vx", "vyrel", "kind")), p.kernel(), 16
+        )
+        assert worst_in <= 1.0 and worst_end <= 1.0 and back == 0
+
+
+def test_a_box_that_moves_into_the_floor_is_refused():
+    from bbdyn.ensemble import Box
+
+    into = Box(s=(0.0, 1.0), vx=(-1.0, 1.0), vy=(-100.0, -60.0))  # slower than the floor
+    with pytest.raises(ValueError, match="no post-collision states"):
+        initial_conditions(Params(f=85.2), 4, 0, into)
+
+
 def test_same_numbers_at_one_and_two_threads():
     if numba.config.NUMBA_NUM_THREADS < 2:
         pytest.skip("needs two numba threads")
@@ -323,8 +398,8 @@ def test_simulate_command_prints_the_required_fields(capsys):
     args = parser.parse_args(["--f", "85.2", "--n", "20", "--t", "1", "--seed", "3", "--json"])
     assert simulate.run(args) == 0
     out = json.loads(capsys.readouterr().out)
-    for key in ("D", "D_se", "E", "E_x", "E_y", "stuck_fraction", "collisions_per_particle_per_s",
-                "wall_s", "params", "seed", "version"):  # fmt: skip
+    for key in ("D", "D_se", "E", "E_x", "E_y", "stuck_fraction", "collision_rate",
+                "cpu_s", "wall_s", "params", "seed", "version"):  # fmt: skip
         assert key in out, key
     assert out["params"]["f"] == 85.2 and out["seed"] == 3
     args = parser.parse_args(["--f", "85.2", "--n", "20", "--t", "1", "--seed", "3"])

@@ -79,6 +79,43 @@ def test_sample_times_inside_the_cycles_are_exact():
     assert np.array_equal(on["displacement"], off["displacement"])
 
 
+def test_a_sample_time_exactly_at_a_skipped_release_is_exact(monkeypatch):
+    """A sample time equal to a release of a skipped cycle, bit for bit (periods and phase
+    handed to the kernel as the release's own): the position is that of the cycle the
+    release begins, as in the event-by-event run (the tie rule of cycle_samples)."""
+    import bbdyn.ensemble as ens
+
+    p, kw = Params(f=62.0), {"n": 12, "t": 40.0, "seed": 1}
+    skipped = ensemble(p, fast_forward="bitwise", observables=(), **kw)["skipped_events"]
+    i = int(np.argmax(skipped))  # a particle whose cycles are skipped after 20 s
+    ev = _release_of(p, i, ens.ensemble(p, fast_forward="off", **{**kw, "t": 20.0}))
+    times = np.array([0.0, 20.0, (ev[0] + ev[1] / (2 * np.pi)) / p.f, 39.0])
+    plain = ens.periods_phase
+
+    def exact_release(t, f):
+        periods, phase = plain(t, f)
+        if t is times:  # the sample at the release: its periods and phase exactly
+            periods[2], phase[2] = ev[0], ev[1]
+        return periods, phase
+
+    monkeypatch.setattr(ens, "periods_phase", exact_release)
+    kw.update(sample_times=times, observables=("displacement",))
+    on, off = ensemble(p, fast_forward="bitwise", **kw), ensemble(p, fast_forward="off", **kw)
+    assert on["skipped_events"][i] > 0
+    np.testing.assert_array_equal(on["displacement"], off["displacement"])
+
+
+def _release_of(p, i, run):
+    """The first release of particle ``i`` after the end of ``run``, event by event."""
+    kp = p.kernel()
+    ev = tuple(float(v) for v in run["final"][i][:6]) + (int(run["final"][i][6]),)
+    for _ in range(10_000):
+        ev = billiard_event(*ev, kp)[:7]
+        if ev[6] == RELEASE:
+            return ev
+    raise AssertionError(f"particle {i} made no release in 10000 events")
+
+
 @pytest.mark.parametrize("mode", ["bitwise", "converged"])
 def test_sample_times_do_not_stop_the_skips(mode):
     # a skip goes on through the sample times (their positions from the cycle run once more):

@@ -267,3 +267,14 @@ def test_doc_prose_matches_the_measured_conclusion():
         float, re.match(r"([\d.]+) \+- ([\d.]+)", key["85.2 Hz exponent H (S2 ~ step^2H)"]).groups()
     )
     assert h + 2 * err < 1
+
+
+def test_noise_term_is_exact_on_a_short_window():
+    """Pure noise on m = 9 points, the end points noisier: S2 has expectation 0 (Monte Carlo
+    over 20000 windows).  The noise of the increments about their mean is tr(P C) / K, which
+    differs from tr(C) / K by (se_0^2 + se_8^2) / K^2 = 0.125 here: far outside the error."""
+    rng = np.random.default_rng(11)
+    se = np.array([2.0, 1, 1, 1, 1, 1, 1, 1, 2.0])
+    s2 = np.array([fs.level_test(_noisy(rng, np.zeros(se.size), se), se)["S2"]
+                   for _ in range(20000)])  # fmt: skip
+    assert abs(s2.mean()) < 4 * s2.std() / np.sqrt(s2.size)

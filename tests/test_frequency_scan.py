@@ -14,6 +14,7 @@ import shutil
 
 import numpy as np
 import pytest
+from extras import require
 
 from bbdyn import Params
 from bbdyn.core.floor import floor_height_rel
@@ -120,7 +121,7 @@ def test_gamma_below_one_stuck_particles_have_harmonic_energies():
     out = diffusion_point(45.0, np.random.SeedSequence(5), n=12, t=3.0, transient=1.5)
     assert out["E_y"] == pytest.approx(harmonic, rel=1e-12)
     assert out["E_x"] == 0.0
-    assert out["trapped"] == 1 and out["D"] == 0.0 and out["D_err"] == 0.0
+    assert out["trapped"] == 1 and out["D"] == 0.0 and out["D_se"] == 0.0
 
 
 @pytest.mark.parametrize("f", [58.0, 85.2])
@@ -140,7 +141,7 @@ def test_energy_drift_is_late_minus_early_half_for_every_particle(f):
         scale = 1e-9 * late[name].max()
         assert out[name + "_drift"] == pytest.approx(drift.mean(), rel=1e-9, abs=scale)
         err = drift.std(ddof=1) / math.sqrt(drift.size)
-        assert out[name + "_drift_err"] == pytest.approx(err, rel=1e-6, abs=scale)
+        assert out[name + "_drift_se"] == pytest.approx(err, rel=1e-6, abs=scale)
 
 
 def test_energy_drift_zero_when_stuck_and_flagged_in_a_transient():
@@ -153,16 +154,16 @@ def test_energy_drift_zero_when_stuck_and_flagged_in_a_transient():
     assert stuck["energy_stationary"] == 1  # a rounding difference is no drift
     relaxing = diffusion_point(50.2, np.random.SeedSequence(0), n=20, t=2.0, transient=0.0)
     assert relaxing["energy_stationary"] == 0
-    assert abs(relaxing["E_drift"]) > 5 * relaxing["E_drift_err"]
+    assert abs(relaxing["E_drift"]) > 5 * relaxing["E_drift_se"]
 
 
 def test_diffusion_point_reports_every_number_with_its_error():
     out = diffusion_point(85.2, np.random.SeedSequence(2), **TINY)
     for name in ("D", "E", "E_x", "E_y", "E_pot", "stuck_fraction", "collision_rate"):
-        assert name + "_err" in out and math.isfinite(out[name + "_err"])
+        assert name + "_se" in out and math.isfinite(out[name + "_se"])
     assert out["E_reference"] == pytest.approx(0.5 * (0.1 * 2 * math.pi * 85.2) ** 2)
     assert out["E"] == pytest.approx(out["E_x"] + out["E_y"] + out["E_pot"])
-    assert out["D_windows"].shape == out["D_windows_err"].shape == (4,)
+    assert out["D_windows"].shape == out["D_windows_se"].shape == (4,)
 
 
 @pytest.mark.parametrize(
@@ -212,7 +213,7 @@ def test_scan_interrupted_and_resumed_equals_uninterrupted(tmp_path):
 
 
 def test_scan_on_dask_equals_local(tmp_path):
-    distributed = pytest.importorskip("distributed")
+    distributed = require("distributed", "dask")
     local = frequency_scan(FREQS[1:], out_dir=tmp_path / "local", seed=9, workers=1, **TINY)
     with (
         distributed.LocalCluster(n_workers=1, threads_per_worker=1, processes=False) as cluster,
@@ -229,7 +230,7 @@ def test_scan_below_gamma_one_finishes_trapped(tmp_path):
     scan = frequency_scan(freqs, out_dir=tmp_path / "s", seed=1, workers=2, n=8, t=2.0)
     np.testing.assert_array_equal(scan["trapped"], 1)
     np.testing.assert_array_equal(scan["D"], 0.0)
-    np.testing.assert_array_equal(scan["D_err"], 0.0)
+    np.testing.assert_array_equal(scan["D_se"], 0.0)
     np.testing.assert_array_equal(scan["collision_rate"], 0.0)
     assert load_scan(tmp_path / "s").values.tolist() == freqs
 

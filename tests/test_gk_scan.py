@@ -50,7 +50,7 @@ def test_identities_of_the_numbers(gk852):
     assert out["p_f"] + out["p_b"] == pytest.approx(1.0, abs=1e-12)
     surplus = (p.A * p.w) ** 2 - 2 * p.g * p.A
     assert out["D_a"] == pytest.approx(0.5 * p.d * math.sqrt(surplus / (1 + out["r"])), rel=1e-12)
-    assert out["D_n"].shape == out["D_n_err"].shape == (21,)
+    assert out["D_n"].shape == out["D_n_se"].shape == (21,)
 
 
 def test_D_a_undefined_below_gamma_2():
@@ -88,7 +88,7 @@ def test_gk_command_json(f, capsys):
     out = _strict_json(capsys.readouterr().out)
     for key in ("tau", "D_rw", "D_a", "r", "D", "D_se", "p_f", "p_b", "D_a_reason"):
         assert key in out
-    assert len(out["D_n"]) == len(out["D_n_err"]) == 4
+    assert len(out["D_n"]) == len(out["D_n_se"]) == 4
     assert out["params"]["f"] == f and out["nmax"] == 3
     if f < 70.46:
         assert out["D_a"] is None and "Gamma" in out["D_a_reason"]

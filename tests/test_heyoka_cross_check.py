@@ -19,6 +19,7 @@ import math
 
 import numpy as np
 import pytest
+from extras import require
 from scipy.optimize import brentq
 
 from bbdyn.core.billiard import billiard_flight
@@ -30,9 +31,7 @@ from bbdyn.reference import heyoka_flight
 from bbdyn.reference.billiard_mpmath import reference_flight
 from bbdyn.scenes import b2_billiard, b2_flat
 
-pytest.importorskip(
-    "heyoka", reason="heyoka not installed (optional extra: pip install '.[peers]')"
-)
+require("heyoka", "peers")
 
 #: Rounding allowance of the gap, in units of eps times its largest term.
 GAP_ULPS = 64.0

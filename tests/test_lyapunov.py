@@ -232,6 +232,48 @@ def test_bad_input_is_refused_with_the_parameter_named():
         flat_lyapunov(p, 2, t=1.0, windows=0)
     with pytest.raises(ValueError, match="per must be"):
         flat_lyapunov(p, 1, t=0.1).exponents("year")
+    with pytest.raises(ValueError, match="less than one driving period"):
+        flat_lyapunov(p, 2, t=1e-300)
+
+
+def test_window_agreement_is_a_chi2_test_of_the_window_means():
+    """Synthetic exponents, 400 particles x 4 windows: with one mean in every window the
+    chi^2 follows its distribution (mean = dof over 2000 sets, false alarms near WINDOW_P_MIN);
+    a drift of a few standard errors per window is flagged."""
+    from bbdyn.lyapunov import WINDOW_P_MIN, window_agreement
+
+    rng = np.random.default_rng(4)
+    n, w = 400, 4
+    elapsed = rng.uniform(1.0, 2.0, (n, w))
+    tests = [window_agreement(rng.normal(3.0, 0.5, (n, w)) * elapsed, elapsed)
+             for _ in range(2000)]  # fmt: skip
+    chi2 = np.array([t["window_chi2"] for t in tests])
+    assert tests[0]["window_dof"] == w - 1
+    # variances estimated from n particles widen chi^2(w - 1) by about (n - 1) / (n - 3)
+    assert abs(chi2.mean() - (w - 1) * (1 + 2 / (n - 3))) < 4 * chi2.std() / math.sqrt(chi2.size)
+    assert np.mean([not t["windows_agree"] for t in tests]) < 10 * WINDOW_P_MIN
+    drift = rng.normal(3.0, 0.5, (n, w)) + np.arange(w) * 3 * 0.5 / math.sqrt(n)
+    flagged = window_agreement(drift * elapsed, elapsed)
+    assert not flagged["windows_agree"] and flagged["window_p"] < WINDOW_P_MIN
+    one = window_agreement(np.ones((n, 1)), np.ones((n, 1)))  # nothing to compare
+    assert one["windows_agree"] and math.isnan(one["window_p"])
+
+
+def test_lyapunov_command_warns_when_the_windows_drift(capsys):
+    """55 Hz: the particles creep onto their attractor during the run, the four windows'
+    exponents fall from about -0.3 to -2.4 /s, many errors apart: a one-line warning and
+    ``windows_agree: false`` in the JSON; at 85.2 Hz they agree, no warning."""
+    import json
+
+    from bbdyn.cli import main
+
+    for f, agree in (("55", False), ("85.2", True)):
+        assert main(["lyapunov", "--f", f, "--json"]) == 0
+        out, err = capsys.readouterr()
+        s = json.loads(out)
+        assert s["windows_agree"] is agree and (s["window_p"] < 1e-3) is not agree
+        warned = [line for line in err.splitlines() if "warning" in line]
+        assert len(warned) == (0 if agree else 1), err
 
 
 #: The measurement quoted in docs/lyapunov.md: ``bbdyn lyapunov --f F`` (defaults n = 20,

@@ -276,12 +276,12 @@ def test_energy_claims_in_results_md(f):
     E_scale = energy_scale(point["E"], params["g"], params["A"])
     scales = {"D": 0.0, "E": E_scale, "E_x": point["E_x"]}
     for key, scale in scales.items():
-        bound = 3 * math.hypot(point[f"{key}_err"], committed[f"{key}_err"][i])
+        bound = 3 * math.hypot(point[f"{key}_se"], committed[f"{key}_err"][i])
         bound += 2 * average_rounding(events, scale)
         assert abs(point[key] - committed[key][i]) <= bound, key
     ratio = point["E"] / point["E_reference"]
     if f == 70.0:
-        assert point["jump_rate"] > 0 and point["D"] > 3 * point["D_err"] and ratio > 2
+        assert point["jump_rate"] > 0 and point["D"] > 3 * point["D_se"] and ratio > 2
     else:
         d = meta["params"]["d"]
         assert point["jump_rate"] == 0 and abs(point["D"]) < d**2 / kwargs["t"] and ratio < 1
@@ -316,14 +316,13 @@ def test_settings_are_shown_in_words_not_python_reprs(scene_id):
             assert f"t = {settings['t']:g} s" in text
 
 
-def test_cost_estimate_bounds_the_measured_full_scan_and_names_it():
-    """The event-model cost of S3 at its full setting is an upper bound of the CPU time
-    the documented full scan really took, and the estimate names that run."""
+def test_cost_estimate_names_the_documented_run():
+    """The cost line of S3 at its full setting names the documented run of those settings
+    (the forecast itself: tests/test_cost_forecast.py)."""
     from bbdyn.scenes.reproduce import cost_lines
 
     meta = json.loads((DOCS / "figures" / "S3_full.json").read_text())["meta"]
     if meta["provenance"]["settings"] != scene_settings("S3", "full"):
         pytest.skip("docs/figures/S3_full was made at other settings")
-    assert scene_module("S3").cost(scene_settings("S3", "full")) > meta["scan_cpu_s"]
     (line,) = [s for s in cost_lines(["S3"], "full") if s.startswith("S3:")]
     assert "docs/figures/S3_full" in line and meta["provenance"]["commit"][:7] in line

@@ -57,6 +57,26 @@ def test_absurd_sizes_are_refused_before_allocating(kwargs, message):
     assert peak < 2**20  # nothing of the run's size was allocated
 
 
+@pytest.mark.parametrize("boxes", [1, 3])
+def test_classification_size_is_checked_before_drawing(boxes):
+    """classify refuses an oversized run (here 13 GiB of feature arrays per 2 million
+    particles) before it draws the initial conditions (48 MB per box here, 22 GiB for
+    10^9 particles)."""
+    from bbdyn.classify import classify
+    from bbdyn.ensemble import reference_box
+
+    p = Params(f=85.2)
+    trajectory_features(p, t=1.0, n=2, seed=0)  # imports and kernels, outside the count
+    tracemalloc.start()
+    try:
+        with pytest.raises(ValueError, match="run too large: n = .* GiB of arrays"):
+            classify(p, t=10.0, n=2_000_000, seed=0, boxes=[reference_box(p)] * boxes)
+        _, peak = tracemalloc.get_traced_memory()
+    finally:
+        tracemalloc.stop()
+    assert peak < 2**20
+
+
 def test_limits_are_arguments():
     p, kw = Params(f=85.2), {"n": 4, "t": 1.0, "seed": 0}
     events = 4 * 1.0 * 85.2 * EVENTS_PER_PERIOD

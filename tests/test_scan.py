@@ -19,6 +19,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from extras import require
 
 from bbdyn import Params
 from bbdyn.core.flat import FlatState, flat_run
@@ -50,7 +51,7 @@ def synthetic(value, seed_sequence, *, n=64, stop_file=None, hang_file=None):
         time.sleep(60.0)
     rng = np.random.default_rng(seed_sequence)
     x = rng.normal(value, 1.0, n)
-    return {"mean": x.mean(), "mean_err": x.std(ddof=1) / math.sqrt(n), "draws": x}
+    return {"mean": x.mean(), "mean_se": x.std(ddof=1) / math.sqrt(n), "draws": x}
 
 
 def flat_ensemble(f, seed_sequence, *, n=16, events=400):
@@ -133,7 +134,7 @@ def test_order_and_worker_count_do_not_change_numbers(tmp_path, reference):
     reverse = run_scan(VALUES[::-1], synthetic, out_dir=tmp_path, seed=3, workers=1, progress=False)
     order = np.argsort(reverse.values)
     assert (reverse.values[order] == reference.values).all()
-    for k in ("mean", "mean_err", "draws"):
+    for k in ("mean", "mean_se", "draws"):
         np.testing.assert_array_equal(reverse[k][order], reference[k])
 
 
@@ -149,7 +150,7 @@ def test_stacking_shapes_and_values_order(reference):
     # each point's mean is its own draws' mean: rows stay with their value
     np.testing.assert_array_equal(reference["mean"], reference["draws"].mean(axis=1))
     # and the draws are centred on the value (normal, sd 1, n = 64: |error| < 6 sd)
-    assert np.all(np.abs(reference["mean"] - reference.values) < 6 * reference["mean_err"])
+    assert np.all(np.abs(reference["mean"] - reference.values) < 6 * reference["mean_se"])
 
 
 def test_points_load_without_pickle_and_carry_metadata(reference_dir, reference):
@@ -159,7 +160,7 @@ def test_points_load_without_pickle_and_carry_metadata(reference_dir, reference)
     assert not list((out / "points").glob("*.tmp"))
     for path in files:
         with np.load(path, allow_pickle=False) as data:
-            assert set(data.files) == {"mean", "mean_err", "draws"}
+            assert set(data.files) == {"mean", "mean_se", "draws"}
         meta = json.loads(path.with_suffix(".json").read_text())["meta"]
         assert meta["key"] == point_key(meta["value"]) and meta["seed"] == 3
         assert meta["compute"]["function"].endswith(":synthetic")
@@ -345,8 +346,9 @@ def test_progress_counts_rate_from_resumed_points_only():
 
 def test_plot_draws_errorbars_of_a_scalar(reference):
     ax = reference.plot(key="mean")
-    assert ax.get_xlabel() == "f" and ax.get_ylabel() == "mean"
-    assert len(ax.containers) == 1  # the errorbar container from mean_err
+    # labels with the schema's unit, where the key has one (f in Hz; "mean" is the test's)
+    assert ax.get_xlabel() == "f (Hz)" and ax.get_ylabel() == "mean"
+    assert len(ax.containers) == 1  # the errorbar container from mean_se
     with pytest.raises(ValueError, match="scalar outputs"):
         reference.plot(key="draws")
 
@@ -354,9 +356,7 @@ def test_plot_draws_errorbars_of_a_scalar(reference):
 # ---- dask -----------------------------------------------------------------------------------
 @pytest.fixture(scope="module")
 def cluster():
-    distributed = pytest.importorskip(
-        "distributed", reason="dask.distributed not installed (pip install 'bbdyn[dask]')"
-    )
+    distributed = require("distributed", "dask")
     with distributed.LocalCluster(
         n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None
     ) as cluster:

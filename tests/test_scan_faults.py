@@ -19,6 +19,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from extras import require
 
 import bbdyn.results
 from bbdyn.scans.runner import load_scan, run_scan
@@ -318,9 +319,41 @@ def test_full_disk_in_the_command_is_a_short_message(tmp_path):
     assert load_scan(out).values.tolist() == [60.0, 60.5, 61.0]
 
 
+def test_interrupted_command_says_what_is_saved_and_how_to_finish(tmp_path):
+    """Ctrl-C after the first of three points of `bbdyn scan`: one line saying that 1 of 3
+    points is saved in the folder and the exact command that finishes the scan (run here:
+    it computes the two others)."""
+    import shlex
+
+    out = tmp_path / "my scan"
+    code = (
+        "import sys, numpy as np, bbdyn.results as r; real = np.savez; calls = [];\n"
+        "def savez(*a, **k):\n"
+        "    calls.append(1)\n"
+        "    if len(calls) > 1: raise KeyboardInterrupt\n"
+        "    return real(*a, **k)\n"
+        "r.np.savez = savez\n"
+        "from bbdyn.cli import main; sys.exit(main(sys.argv[1:]))\n"
+    )
+    args = ["scan", "--f-start", "60", "--f-stop", "61", "--f-step", "0.5", "--n", "4",
+            "--t", "1", "--R", "20", "--workers", "1", "--out", str(out)]  # fmt: skip
+    run = subprocess.run([sys.executable, "-c", code, *args], capture_output=True, text=True,
+                         timeout=120)  # fmt: skip
+    assert run.returncode == 130, run.stderr
+    (said,) = [line for line in run.stderr.splitlines() if line.startswith("interrupted")]
+    assert f"1 of 3 points are saved in {out}" in said, said
+    command = shlex.split(said.split("finish the scan with: ")[1])
+    assert command[:2] == ["bbdyn", "scan"] and "--resume" in command
+    resumed = subprocess.run([sys.executable, "-m", "bbdyn.cli", *command[1:]],
+                             capture_output=True, text=True, timeout=120)  # fmt: skip
+    assert resumed.returncode == 0, resumed.stderr
+    scan = load_scan(out)
+    assert scan.values.tolist() == [60.0, 60.5, 61.0] and scan.meta["compute"]["kwargs"]["R"] == 20
+
+
 # ---- unreachable scheduler ------------------------------------------------------------------
 def test_unreachable_scheduler_fails_fast_and_writes_nothing(tmp_path):
-    pytest.importorskip("distributed")
+    require("distributed", "dask")
     address = "tcp://127.0.0.1:1"
     t0 = time.monotonic()
     with pytest.raises(OSError, match="scheduler") as info:

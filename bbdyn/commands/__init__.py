@@ -7,9 +7,9 @@ folder is created) and every saved file is reported.  ``PARAM_DEFAULTS`` are the
 defaults of ``bbdyn.Params``, shown by ``--help``.
 
 Every command takes the model parameters the same way (``add_model_arguments``,
-``params_from``), prints the same JSON key with the same unit for the same quantity
-(``UNITS``, ``units_of``) and shows the progress of a long single run on a terminal
-(``run_progress``).
+``params_from``), prints one JSON object with the same key and unit for the same
+quantity (``json_output``, the vocabulary of ``bbdyn.schema``) and shows the progress of
+a long single run on a terminal (``run_progress``).
 """
 
 from __future__ import annotations
@@ -17,7 +17,6 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import math
-import os
 import sys
 import time
 from collections.abc import Callable
@@ -105,14 +104,36 @@ def _writable_folder(text: str) -> Path:
         raise argparse.ArgumentTypeError(
             f"folder {folder} does not exist; create it first or choose an existing folder"
         )
-    if not os.access(folder, os.W_OK | os.X_OK):
+    if not _can_create_files_in(folder):
         raise argparse.ArgumentTypeError(f"folder {folder} is not writable; choose another folder")
     return path
 
 
+def _can_create_files_in(folder: Path) -> bool:
+    """Whether a file can be created in ``folder``, found by creating (and removing) one:
+    permission bits alone do not tell (root may write anywhere by them, but not in /proc;
+    a read-only file system)."""
+    import tempfile
+
+    try:
+        with tempfile.TemporaryFile(dir=folder):
+            return True
+    except OSError:
+        return False
+
+
+def output_folder(text: str) -> str:
+    """``--out DIR`` of the commands that write a folder of results (created if missing):
+    any path but an empty one (which would mean the current folder for some and the
+    default for others)."""
+    if not text.strip():
+        raise argparse.ArgumentTypeError("must name a folder, got an empty path")
+    return text
+
+
 #: ``--save NAME``: a result saved as NAME.npz and NAME.json in an existing folder.
 save_name = _writable_folder
-#: ``--plot PNG``, ``--out PNG``: a file in an existing folder.
+#: ``--plot PNG``, ``--out PNG``, ``--progress FILE``: a file in an existing folder.
 output_file = _writable_folder
 
 
@@ -135,12 +156,15 @@ def report_written(message: str, json_mode: bool) -> None:
 
 
 def jsonable(value):
-    """``value`` with every non-finite float (NaN, inf) replaced by None, through dicts and
-    lists, so that the printed JSON is strict (no NaN or Infinity tokens)."""
+    """``value`` with numpy scalars as Python numbers and every non-finite float (NaN, inf)
+    replaced by None, through dicts and lists, so that the printed JSON is strict (no NaN
+    or Infinity tokens)."""
     if isinstance(value, dict):
         return {k: jsonable(v) for k, v in value.items()}
     if isinstance(value, list | tuple):
         return [jsonable(v) for v in value]
+    if hasattr(value, "item") and hasattr(value, "dtype"):  # a numpy scalar
+        value = value.item()
     return None if isinstance(value, float) and not math.isfinite(value) else value
 
 
@@ -213,27 +237,36 @@ def params_from(args) -> Params:
     return Params(**model_values(args))
 
 
-# ---- the JSON output: the same key and unit for the same quantity --------------------------
-#: Units of the numbers in the commands' JSON output.  A key's standard error ``KEY_se``
-#: (over particles) and bootstrap error ``KEY_err`` share its unit; fractions, counts,
-#: ``gamma`` and the restitutions are dimensionless.
-UNITS = {
-    "f": "Hz", "A": "mm", "g": "mm/s^2", "R": "mm", "d": "mm",
-    "t": "s", "transient": "s", "wall_s": "s", "feature_wall_s": "s", "tau": "s",
-    "D": "mm^2/s", "D_rw": "mm^2/s", "D_a": "mm^2/s", "D_n": "mm^2/s",
-    "E": "kg mm^2/s^2", "E_kin": "kg mm^2/s^2", "E_x": "kg mm^2/s^2", "E_y": "kg mm^2/s^2",
-    "E_pot": "kg mm^2/s^2", "E_reference": "kg mm^2/s^2",
-    "collisions_per_particle_per_s": "1/s", "jumps_per_particle_per_s": "1/s",
-    "jumps_per_s": "1/s", "collision_rate": "1/s", "jump_rate": "1/s",
-    "lam1_per_s": "1/s", "lam2_per_s": "1/s", "cond_lam1_per_s": "1/s", "cond_lam2_per_s": "1/s",
-}  # fmt: skip
+# ---- the JSON output: one object, the same key and unit for the same quantity -------------
+class Clock:
+    """CPU time of this process (``time.process_time``: every thread, numba's included) and
+    wall-clock time since the clock was made."""
+
+    def __init__(self):
+        self.cpu0, self.wall0 = time.process_time(), time.perf_counter()
+
+    def cpu_s(self) -> float:
+        """CPU seconds of this process since the clock was made."""
+        return time.process_time() - self.cpu0
+
+    def wall_s(self) -> float:
+        """Wall-clock seconds since the clock was made."""
+        return time.perf_counter() - self.wall0
 
 
-def units_of(out: dict) -> dict:
-    """The ``units`` entry of a JSON output: the unit of each key of ``out`` (and of its
-    ``params``) that has one."""
-    keys = set(out) | set(out.get("params", {}))
-    return {k: unit for k, unit in UNITS.items() if k in keys}
+def json_output(body: dict, *, params: dict, clock: Clock, seed: int | None = None) -> dict:
+    """The JSON object of a command (``bbdyn.schema.document``) timed by ``clock``: the
+    CPU time of this process, which did the work."""
+    from bbdyn.schema import document
+
+    return document(body, params=params, cpu_s=clock.cpu_s(), wall_s=clock.wall_s(), seed=seed)
+
+
+def print_json(out: dict) -> None:
+    """Print a command's JSON object, strict JSON (NaN and inf as null)."""
+    import json
+
+    print(json.dumps(jsonable(out), indent=2))
 
 
 # ---- progress of a single run ----------------------------------------------------------------

@@ -3,12 +3,13 @@
 A target is a view of a B2 scene of the scene registry (``bbdyn.scenes.SCENES``):
 ``bbdyn bench flat`` runs scene ``B2-FLAT`` at its full (or quick) setting, with
 ``--impacts`` and ``--long-run`` overriding its sizes, and prints the scene's
-``table``; the figure and numbers are saved as for any scene (with provenance).
+``table``; the figure and numbers are saved as for any scene (with provenance).  With
+``--json`` it prints one JSON object (docs/schema.md): ``version``, ``params``, ``target``,
+``setting``, ``rows`` (the benchmark table, one object per method and setting, its columns
+described in docs/benchmarks.md), ``cpu_s``, ``wall_s`` and ``units``.
 """
 
-import json
-
-from bbdyn.commands import integer_in, jsonable, output_file, report_written
+from bbdyn.commands import Clock, integer_in, json_output, output_file, print_json, report_written
 
 HELP = "work-precision benchmark (B2): speed and error against an mpmath reference"
 
@@ -25,7 +26,7 @@ LONG_RUN_WHY = "the long run integrates every impact with each fixed-step settin
 def add_arguments(parser) -> None:
     parser.add_argument("target", choices=sorted(TARGETS), help="what to benchmark")
     parser.add_argument("--quick", action="store_true", help="quick setting (< 60 s)")
-    parser.add_argument("--json", action="store_true", help="print one JSON object per row")
+    parser.add_argument("--json", action="store_true", help="print one JSON object")
     parser.add_argument(
         "--out", type=output_file, default=None, metavar="PNG",
         help="figure path in an existing folder, numbers beside it (default: out/bench_TARGET.png)",
@@ -49,6 +50,7 @@ def run(args) -> int:
     overrides = {k: v for k, v in (("n_impacts", args.impacts), ("long_run", args.long_run))
                  if v is not None}  # fmt: skip
     png = args.out or Path("out") / f"bench_{args.target}.png"
+    clock = Clock()
     result, png = run_scene(
         scene_id,
         setting="quick" if args.quick else "full",
@@ -57,7 +59,9 @@ def run(args) -> int:
         overrides=overrides,
     )
     if args.json:
-        print(json.dumps(jsonable(result.meta["rows"]), indent=1))
+        body = {"target": args.target, "setting": result.meta["setting"]}
+        body["rows"] = result.meta["rows"]
+        print_json(json_output(body, params=result.meta.get("params", {}), clock=clock))
     else:
         print(scene_module(scene_id).table(result) + "\n")
     report_written(f"figure: {png}; numbers: {png.with_suffix('.json')}", args.json)

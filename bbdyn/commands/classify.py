@@ -9,28 +9,29 @@ windows) and its energies (kg mm^2/s^2).  Progress is shown on stderr when it is
 terminal (not with --json).  ``bbdyn classify F`` (the frequency as a positional
 argument) still works but is deprecated: use ``--f F`` as every other command.
 
-JSON keys: ``version``, ``params`` (f Hz, A mm, g mm/s^2, alpha, beta, R mm, d mm),
-``gamma``, ``seed``, ``n``, ``t``, ``transient`` (s), ``boxes``; ``regime``,
+JSON keys (docs/schema.md): ``version``, ``params`` (f Hz, A mm, g mm/s^2, alpha, beta,
+R mm, d mm), ``seed``, ``gamma``, ``n``, ``t``, ``transient`` (s), ``boxes``; ``regime``,
 ``regime_meaning``, ``reason``, ``ergodic``, ``ergodicity``; ``attractors`` (each with
 ``fraction``, ``D``, ``D_se`` in mm^2/s, ``D_windows``, energies ``E``, ``E_x``, ``E_y``,
 ``E_pot`` with ``_se`` in kg mm^2/s^2, ``jump_rate`` 1/s, ...); ``E_reference``;
-``unsettled_fraction``, ``failed_fraction``, ``failures``; ``thresholds``; ``wall_s`` (s);
-``units`` (the unit of each dimensioned key, here and in the attractors).
+``unsettled_fraction``, ``failed_fraction``, ``failures``; ``thresholds``; ``cpu_s``,
+``wall_s`` (s); ``units`` (the unit of each dimensioned key, here and in the attractors).
 """
 
 import argparse
 import sys
 
 from bbdyn.commands import (
+    Clock,
     add_ensemble_arguments,
     add_model_arguments,
     finite,
-    jsonable,
+    json_output,
     output_file,
     params_from,
+    print_json,
     report_written,
     run_progress,
-    units_of,
 )
 
 HELP = "classify the dynamics at one frequency: attractors, basins, ergodicity, regime"
@@ -101,26 +102,21 @@ def parse_box(text: str, params):
 
 def classify_summary(args):
     """Run the classifier described by ``args``; returns ``(summary dict, Classification)``."""
-    import time
-
-    from bbdyn import __version__
     from bbdyn.classify import Thresholds, classify
 
+    clock = Clock()
     params = params_from(args)
     thresholds = Thresholds() if args.hop_floor is None else Thresholds(hop_floor=args.hop_floor)
     boxes = [parse_box(b, params) for b in (args.box or ["ref"])]
-    start = time.perf_counter()
     bar = run_progress("classify", args.t, args.json)
     res = classify(
         params, t=args.t, n=args.n, seed=args.seed, boxes=boxes, transient=args.transient,
         thresholds=thresholds, threads=args.threads, progress=bar.update_fraction,
     )  # fmt: skip
     bar.close()
-    out = {"version": __version__, "params": params.to_dict(), "boxes": [vars(b) for b in boxes]}
-    out.update(res.summary)
-    out["wall_s"] = time.perf_counter() - start
-    out["units"] = {**units_of(out), **res.summary["units"]}
-    return out, res
+    out = {"boxes": [vars(b) for b in boxes]}
+    out.update((k, v) for k, v in res.summary.items() if k != "units")
+    return json_output(out, params=params.to_dict(), clock=clock, seed=args.seed), res
 
 
 def plot_attractors(res, path) -> None:
@@ -173,15 +169,13 @@ def attractor_figure(res):
 
 
 def run(args) -> int:
-    import json
-
     use_positional_frequency(args)
     out, res = classify_summary(args)
     if args.plot:
         plot_attractors(res, args.plot)
         report_written(f"plot: {args.plot}", args.json)
     if args.json:
-        print(json.dumps(jsonable(out), indent=2, default=float))
+        print_json(out)
         return 0
     e = out["ergodicity"]
     print(f"bbdyn {out['version']}  f = {out['f']} Hz (Gamma = {out['gamma']:.4f})  n = {out['n']}"
@@ -197,7 +191,7 @@ def run(args) -> int:
               "left out of every attractor")  # fmt: skip
     for a, att in enumerate(out["attractors"]):
         print_attractor(a, att, out["units"])
-    print(f"  wall time {out['wall_s']:.2f} s")
+    print(f"  time {out['cpu_s']:.2f} s CPU, {out['wall_s']:.2f} s wall")
     return 0
 
 

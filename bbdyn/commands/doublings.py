@@ -1,12 +1,20 @@
 """`bbdyn doublings [--alpha 0.5] [--kmax 3] [--levels 8] [--json]`: period-doubling cascades.
 
 The cascades in Gamma (dimensionless) depend on alpha only, so ``--alpha`` is the one
-model option (``add_model_arguments``).  JSON: a list, one object per k, with ``k``,
-``status``, ``reason``, ``gamma_doublings`` (Gamma of each doubling) and
+model option (``add_model_arguments``).  JSON (docs/schema.md): ``version``, ``params``
+(alpha), ``cpu_s``, ``wall_s``, ``units`` and ``doublings``, one object per k, with
+``k``, ``status``, ``reason``, ``gamma_doublings`` (Gamma of each doubling) and
 ``feigenbaum_ratios``.
 """
 
-from bbdyn.commands import add_model_arguments, integer_in, jsonable
+from bbdyn.commands import (
+    Clock,
+    add_model_arguments,
+    integer_in,
+    json_output,
+    model_values,
+    print_json,
+)
 
 HELP = (
     "period-doubling cascades of the k/1 orbits of the flat ball: Gamma of each doubling "
@@ -31,18 +39,18 @@ def add_arguments(parser) -> None:
         default=8,
         help="doublings per cascade (default: %(default)s)",
     )
-    parser.add_argument("--json", action="store_true", help="print a JSON list, one object per k")
+    parser.add_argument("--json", action="store_true", help="print one JSON object")
 
 
 def run(args) -> int:
-    import json
-
     from bbdyn.continuation import FEIGENBAUM_DELTA, doubling_cascade
 
+    clock = Clock()
     table = doubling_cascade(args.alpha, args.kmax, args.levels)
     rows = table.rows()
     if args.json:
-        print(json.dumps(jsonable(rows), indent=2))
+        body = {"kmax": args.kmax, "levels": args.levels, "doublings": rows}
+        print_json(json_output(body, params=model_values(args), clock=clock))
         return 0
     print(f"period-doubling cascades of k/1 orbits, alpha = {args.alpha} (dimensionless Gamma)")
     for r in rows:

@@ -9,25 +9,27 @@ particle changes trap after the transient the run is reported as trapped (regime
 tau = r = inf when nothing jumped or moved sideways) are ``null``.  Progress is shown
 on stderr when it is a terminal (not with --json).
 
-JSON keys: ``version``, ``params`` (f Hz, A mm, g mm/s^2, alpha, beta, R mm, d mm),
-``gamma``, ``seed``, ``n``, ``t``, ``transient`` (s), ``nmax``; ``D``, ``D_se`` (Einstein,
-standard error over particles; mm^2/s, the keys of ``bbdyn simulate``); ``tau``,
-``tau_err`` (s); ``D_rw``, ``D_a``, ``D_n`` with bootstrap errors ``_err`` (mm^2/s);
-``r``, ``r_err``; ``p_f``, ``p_b`` (``_err``); ``fraction_long``; ``jumps_per_s`` (1/s);
-``E``, ``E_x``, ``E_y`` (kg mm^2/s^2); ``D_a_reason``, ``n_jumps``, ``trapped``;
-``wall_s`` (s); ``units``.
+JSON keys (docs/schema.md): ``version``, ``params`` (f Hz, A mm, g mm/s^2, alpha, beta,
+R mm, d mm), ``seed``, ``gamma``, ``n``, ``t``, ``transient`` (s), ``nmax``; ``D``,
+``D_se`` (Einstein, standard error over particles; mm^2/s, the keys of ``bbdyn
+simulate``); ``tau``, ``tau_se`` (s); ``D_rw``, ``D_a``, ``D_n`` with bootstrap standard
+errors ``_se`` (mm^2/s); ``r``, ``r_se``; ``p_f``, ``p_b`` (``_se``); ``fraction_long``;
+``jump_rate`` (per particle, 1/s); ``E``, ``E_x``, ``E_y`` (kg mm^2/s^2); ``D_a_reason``,
+``n_jumps``, ``trapped`` (true or false) and ``trapped_reason``; ``cpu_s``, ``wall_s``
+(s); ``units``.
 """
 
 from bbdyn.commands import (
+    Clock,
     add_ensemble_arguments,
     add_model_arguments,
     add_save_argument,
     integer_in,
-    jsonable,
+    json_output,
     params_from,
+    print_json,
     run_progress,
     save_result,
-    units_of,
 )
 
 HELP = "random-walk and truncated Green-Kubo approximations of D at one frequency"
@@ -62,9 +64,9 @@ def trapped_reason(n_jumps: int, gamma: float) -> str:
 
 def gk_summary(args) -> dict:
     """Run ``gk_run`` as described by ``args``; the printed quantities as a JSON-ready dict."""
-    from bbdyn import __version__
     from bbdyn.scans.green_kubo import gk_numbers, gk_run
 
+    clock = Clock()
     params = params_from(args)
     bar = run_progress("gk", args.t, args.json)
     gk = gk_run(
@@ -75,26 +77,23 @@ def gk_summary(args) -> dict:
     if args.save:
         save_result(gk, args.save, args.json)
     numbers = gk_numbers(gk)
-    out = {"version": __version__, "params": params.to_dict(), "gamma": params.gamma}
-    out.update(seed=args.seed, n=args.n, t=args.t, transient=gk.meta["transient"], nmax=args.nmax)
+    out = {"gamma": params.gamma, "n": args.n, "t": args.t, "transient": gk.meta["transient"]}
+    out["nmax"] = args.nmax
     for key, value in numbers.items():
         out[key] = value.tolist() if hasattr(value, "tolist") else value
-    out["D_se"] = out.pop("D_err")  # a standard error over particles, as in bbdyn simulate
     out["D_a_reason"] = gk.meta["D_a_reason"]
     out["n_jumps"] = gk.meta["n_jumps"]
-    out["trapped"] = trapped_reason(out["n_jumps"], params.gamma)
-    out["wall_s"] = gk.meta["sim_wall_s"] + gk.meta["gk_wall_s"]
-    out["units"] = units_of(out)
-    return out
+    out["trapped_reason"] = trapped_reason(out["n_jumps"], params.gamma)
+    out["trapped"] = bool(out["trapped_reason"])
+    return json_output(out, params=params.to_dict(), clock=clock, seed=args.seed)
 
 
 def run(args) -> int:
-    import json
     import math
 
     out = gk_summary(args)
     if args.json:
-        print(json.dumps(jsonable(out), indent=2))
+        print_json(out)
         return 0
 
     def fmt(value, err=None, spec=".4g"):
@@ -106,18 +105,18 @@ def run(args) -> int:
     print(f"bbdyn {out['version']}  f = {p['f']} Hz  n = {out['n']}  t = {out['t']} s  "
           f"seed = {out['seed']}  (jumps after {out['transient']:g} s)")  # fmt: skip
     if out["trapped"]:
-        print(f"  {out['trapped']}")
-    print(f"  tau            = {fmt(out['tau'], out['tau_err'])} s  ({out['n_jumps']} jumps, "
+        print(f"  {out['trapped_reason']}")
+    print(f"  tau            = {fmt(out['tau'], out['tau_se'])} s  ({out['n_jumps']} jumps, "
           f"{fmt(out['fraction_long'], spec='.2%')} longer than d)")  # fmt: skip
-    print(f"  D_rw           = {fmt(out['D_rw'], out['D_rw_err'])} mm^2/s")
-    print(f"  r = E_y / E_x  = {fmt(out['r'], out['r_err'])}")
-    d_a = fmt(out["D_a"], out["D_a_err"]) + " mm^2/s"
+    print(f"  D_rw           = {fmt(out['D_rw'], out['D_rw_se'])} mm^2/s")
+    print(f"  r = E_y / E_x  = {fmt(out['r'], out['r_se'])}")
+    d_a = fmt(out["D_a"], out["D_a_se"]) + " mm^2/s"
     print(f"  D_a            = {out['D_a_reason'] if math.isnan(out['D_a']) else d_a}")
-    p_f, p_b = fmt(out["p_f"], out["p_f_err"]), fmt(out["p_b"], out["p_b_err"])
+    p_f, p_b = fmt(out["p_f"], out["p_f_se"]), fmt(out["p_b"], out["p_b_se"])
     print(f"  p_f, p_b       = {p_f}, {p_b}")
     print(f"  Einstein D     = {fmt(out['D'], out['D_se'])} mm^2/s")
     print("  n   D_n (mm^2/s)")
-    for k, (d_n, err) in enumerate(zip(out["D_n"], out["D_n_err"], strict=True)):
+    for k, (d_n, err) in enumerate(zip(out["D_n"], out["D_n_se"], strict=True)):
         print(f"  {k:<3} {fmt(d_n, err)}")
-    print(f"  wall time      = {out['wall_s']:.2f} s")
+    print(f"  time           = {out['cpu_s']:.2f} s CPU, {out['wall_s']:.2f} s wall")
     return 0

@@ -11,25 +11,29 @@ finds; with the largest exponent of each time window (convergence check).
 both exponents per second and per impact, the conditional exponents (growth between
 sticks), the stuck fraction and the window exponents.
 
-JSON keys (billiard): ``model`` ("billiard"), ``params``, ``f``, ``gamma``, ``n``, ``t``
-(s), ``transient`` (s), ``per`` ("attractor" or "ensemble"); ``lam1_per_s``,
-``lam1_per_s_se`` (1/s), ``lam1_per_collision``, ``lam1_per_collision_se``, the same
-with ``cond_`` (growth between collapses), ``collapse_fraction``, ``collisions_per_s``,
-``window_cond_lam1_per_s`` (1/s) for the ensemble; ``attractors``: a list of the same
-keys with ``attractor``, ``fraction``, ``character``; ``regime``; ``wall_s``; ``units``.
-(flat): ``model`` ("flat"), ``lam1_per_s``, ``lam2_per_s`` and ``cond_...`` (1/s),
-``..._per_impact``, each with ``_se``; ``stuck_fraction``; ``window_cond_lam1_per_s``.
+JSON keys (docs/schema.md), both: ``version``, ``params``, ``seed``, ``model``, ``f``,
+``gamma``, ``n``, ``t`` (s), ``cpu_s``, ``wall_s`` (s), ``units``.  Billiard (``model``
+"billiard"): ``transient`` (s), ``per`` ("attractor" or "ensemble"); ``lam1_per_s``,
+``lam1_per_s_se`` (1/s), ``lam1_per_collision``, ``lam1_per_collision_se``, the same with
+``cond_`` (growth between collapses), ``collapse_fraction``, ``collision_rate`` (1/s),
+``window_cond_lam1_per_s`` (1/s) for the ensemble; ``attractors``: a list of the same keys
+with ``attractor``, ``fraction``, ``character``; ``regime``.  Flat (``model`` "flat"):
+``lam1_per_s``, ``lam2_per_s`` and ``cond_...`` (1/s), ``..._per_impact``, each with
+``_se``; ``stuck_fraction``; ``impact_rate`` (1/s); ``window_cond_lam1_per_s``.  Both, with
+the window exponents (and for each attractor): ``window_chi2``, ``window_dof``, ``window_p``
+and ``windows_agree`` (``bbdyn.lyapunov.window_agreement``; false: a warning on stderr).
 """
 
 from bbdyn.commands import (
     BILLIARD_OPTIONS,
+    Clock,
     add_model_arguments,
     finite,
     integer_in,
-    jsonable,
+    json_output,
     params_from,
+    print_json,
     seed,
-    units_of,
 )
 
 HELP = "Largest Lyapunov exponent of the billiard per attractor (or the flat ball's, --flat)"
@@ -67,31 +71,33 @@ def add_arguments(parser) -> None:
 
 
 def lyapunov_summary(args) -> dict:
-    """Run the exponents for ``args`` (billiard, or the flat ball with ``--flat``)."""
-    return flat_summary(args) if args.flat else billiard_summary(args)
+    """Run the exponents for ``args`` (billiard, or the flat ball with ``--flat``): the
+    JSON object of the command."""
+    clock = Clock()
+    out = flat_summary(args) if args.flat else billiard_summary(args)
+    return json_output(out, params=params_from(args).to_dict(), clock=clock, seed=args.seed)
 
 
 def flat_summary(args) -> dict:
-    """The flat ball's summary dict with the window exponents."""
+    """The flat ball's numbers with the window exponents (keys of the Python objects)."""
     from bbdyn.lyapunov import flat_lyapunov
 
     params = params_from(args)
     res = flat_lyapunov(
         params, args.n, t=args.t, transient=args.transient, windows=args.windows, seed=args.seed
     )
-    out = {"model": "flat", "params": params.to_dict(), "f": args.f, "gamma": params.gamma}
+    out = {"model": "flat", "f": args.f, "gamma": params.gamma}
     out.update(n=args.n, t=args.t)
     out.update(res.summary())
     out["window_cond_lam1_per_s"] = [float(x) for x in res.window_exponents()]
     if out["stuck_fraction"] > 0:
         out["note"] = "exponents -inf (null in JSON): a particle stuck, which forgets its state"
-    out["wall_s"] = res.meta["wall_s"]
-    out["units"] = units_of(out)
     return out
 
 
 def billiard_summary(args) -> dict:
-    """The billiard's summary: the ensemble's, and each attractor's unless ``--no-classify``."""
+    """The billiard's numbers: the ensemble's, and each attractor's unless ``--no-classify``
+    (keys of the Python objects)."""
     from bbdyn.lyapunov import billiard_lyapunov
 
     params = params_from(args)
@@ -100,7 +106,7 @@ def billiard_summary(args) -> dict:
         params, args.n, t=args.t, transient=args.transient, windows=args.windows,
         seed=args.seed, classify_attractors=classified,
     )  # fmt: skip
-    out = {"model": "billiard", "params": params.to_dict(), "f": args.f, "gamma": params.gamma}
+    out = {"model": "billiard", "f": args.f, "gamma": params.gamma}
     out.update(t=args.t, transient=args.transient, per="attractor" if classified else "ensemble")
     out.update(res.summary())
     if classified:
@@ -113,9 +119,17 @@ def billiard_summary(args) -> dict:
         out["unsettled_fraction"] = cls["unsettled_fraction"]
     if out["collapse_fraction"] > 0:
         out["note"] = "exponent -inf (null in JSON): a particle stuck at a wedge"
-    out["wall_s"] = res.meta["wall_s"]
-    out["units"] = units_of(out)
     return out
+
+
+def _pm(value: float, se: float, width: int = 0) -> str:
+    """``value +- se`` (the value right-aligned in ``width``, the error in 7 characters); the
+    value alone, padded alike, where the error is undefined (the exponent -inf of a collapse)."""
+    import math
+
+    if math.isnan(se):
+        return f"{value:>{width}.5g}" + " " * (11 if width else 0)
+    return f"{value:>{width}.5g} +- {se:<{7 if width else 0}.2g}"
 
 
 def _billiard_lines(s: dict) -> list[str]:
@@ -130,9 +144,9 @@ def _billiard_lines(s: dict) -> list[str]:
     ]
     for name, g in groups:
         lines.append(
-            f"{name:>30} {g['lam1_per_s']:>12.5g} +- {g['lam1_per_s_se']:<7.2g}"
-            f"{g['lam1_per_collision']:>14.5g} +- {g['lam1_per_collision_se']:<7.2g}"
-            f"{g['collisions_per_s']:>13.5g}"
+            f"{name:>30} {_pm(g['lam1_per_s'], g['lam1_per_s_se'], 12)}"
+            f"{_pm(g['lam1_per_collision'], g['lam1_per_collision_se'], 14)}"
+            f"{g['collision_rate']:>13.5g}"
         )
     if "regime" in s:
         lines.append(f"regime {s['regime']}, unsettled fraction {s['unsettled_fraction']:.2f}")
@@ -148,21 +162,29 @@ def _flat_lines(s: dict) -> list[str]:
     ]
     for tag, unit in (("per_s", "1/s"), ("per_impact", "per impact")):
         for pre, what in (("", "exponents"), ("cond_", "conditional (between sticks)")):
-            vals = [
-                f"{s[f'{pre}lam{i}_{tag}']:.5g} +- {s[f'{pre}lam{i}_{tag}_se']:.2g}" for i in (1, 2)
-            ]
+            vals = [_pm(s[f"{pre}lam{i}_{tag}"], s[f"{pre}lam{i}_{tag}_se"]) for i in (1, 2)]
             lines.append(f"{what:>30} {unit:>10}: lam1 = {vals[0]}, lam2 = {vals[1]}")
     windows = ", ".join(f"{x:.4g}" for x in s["window_cond_lam1_per_s"])
     lines.append(f"conditional lam1 per window (1/s): {windows}")
     return lines
 
 
-def run(args) -> int:
-    import json
+def warn_drift(s: dict) -> None:
+    """One line on stderr when the window exponents disagree beyond their errors."""
+    import sys
 
+    if not s["windows_agree"]:
+        print(f"bbdyn lyapunov: warning: the {s['window_dof'] + 1} windows' exponents disagree "
+              f"beyond their errors (chi2 = {s['window_chi2']:.3g} for {s['window_dof']} dof, "
+              f"p = {s['window_p']:.2g}): not converged, try a longer --transient or --t",
+              file=sys.stderr)  # fmt: skip
+
+
+def run(args) -> int:
     s = lyapunov_summary(args)
+    warn_drift(s)
     if args.json:
-        print(json.dumps(jsonable(s), indent=2))
+        print_json(s)
         return 0
     print("\n".join(_flat_lines(s) if args.flat else _billiard_lines(s)))
     return 0

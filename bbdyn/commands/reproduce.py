@@ -1,7 +1,7 @@
 """``bbdyn reproduce [--quick|--medium|--full] [--out DIR] [--only ID ...]`` and
 ``bbdyn reproduce --docs [--only ID ...]``: scenes with an index page, or the figures of docs/."""
 
-from bbdyn.commands import add_setting_arguments, seed
+from bbdyn.commands import add_setting_arguments, output_folder, seed
 
 HELP = "run every available scene and write figures, their data and an index page to a folder"
 
@@ -15,8 +15,9 @@ def add_arguments(parser) -> None:
         "rewrite the figure table of docs/results.md (resumable)",
     )
     parser.add_argument(
-        "--out", help="output folder (default: out; not with --docs, which writes docs/figures)"
-    )
+        "--out", type=output_folder,
+        help="output folder (default: out; not with --docs, which writes docs/figures)",
+    )  # fmt: skip
     parser.add_argument("--seed", type=seed, default=0, help="random seed (default: 0)")
     parser.add_argument(
         "--only", nargs="*", metavar="ID", help="only these scene ids (at least one)"

@@ -2,33 +2,44 @@
 
 Runs ``bbdyn.scans.frequency.diffusion_point`` at every frequency of the grid with
 ``bbdyn.scans.runner.run_scan``: each finished frequency is stored at once in ``DIR``;
-``--resume`` finishes an interrupted scan.  Prints one line per frequency (D with
+``--resume`` finishes an interrupted scan.  When the scan is complete the whole scan is
+also written as one netCDF file, ``DIR/scan.nc`` (``ScanResult.to_netcdf``; needs the io
+extra, else a note says so).  Prints one line per frequency (D with
 its standard error, E, E_x, flags) or, with ``--json``, one JSON object.  The model
 parameters other than f are options as in every command (``--A --alpha --beta --R --d``).
 
-JSON keys: ``out``, ``params`` (A mm, g mm/s^2, alpha, beta, R mm, d mm; f is scanned),
-``cpu_s`` (s), ``units`` and ``points``, one object per frequency with ``f`` (Hz),
-``gamma``, ``D``, ``D_se`` (mm^2/s, the keys of ``bbdyn simulate``), ``D_converged``,
-``E``, ``E_se``, ``E_x``, ``E_x_se``, ``E_reference`` (kg mm^2/s^2),
-``energy_stationary``, ``stuck_fraction``, ``collision_rate`` (per particle per s),
-``trapped``, ``events`` (all events of the point's run) and ``cpu_s`` (wall time of the
-point in its process, one numba thread: its CPU time on an unloaded core; they sum to
-the top-level ``cpu_s``).
+JSON keys (docs/schema.md): ``version``, ``params`` (A mm, g mm/s^2, alpha, beta, R mm,
+d mm; f is scanned), ``seed``, ``out``, ``n``, ``t`` (s), ``points``, ``cpu_s``, ``wall_s``
+(s), ``units``.  ``points``: one object per frequency with ``f`` (Hz), ``gamma``, ``D``,
+``D_se`` (mm^2/s, the keys of ``bbdyn simulate``), ``D_converged``, ``E``, ``E_se``,
+``E_x``, ``E_x_se``, ``E_reference`` (kg mm^2/s^2), ``energy_stationary``,
+``stuck_fraction``, ``collision_rate`` (per particle per s), ``trapped``, ``events`` (all
+events of the point's run), ``cpu_s`` (CPU time of the worker process that ran the point,
+one numba thread) and ``wall_s`` (its wall-clock time).  The top-level ``cpu_s`` is the
+sum of the points' (the workers did the work), ``wall_s`` the wall-clock time of the
+command.
 """
 
 from bbdyn.commands import (
     BILLIARD_OPTIONS,
     PARAM_DEFAULTS,
+    Clock,
     add_model_arguments,
     duration,
     finite,
+    json_output,
     model_values,
+    output_file,
+    output_folder,
     particles,
+    print_json,
+    report_written,
     seed,
-    units_of,
 )
 
 HELP = "scan D(f), E(f), E_x(f) over a frequency grid (resumable, parallel; docs/diffusion.md)"
+#: The whole scan as one netCDF file, in the scan folder.
+NETCDF = "scan.nc"
 
 
 def add_arguments(parser) -> None:
@@ -55,7 +66,7 @@ def add_arguments(parser) -> None:
         help="time before energy averages (s; default: t/5)",
     )
     parser.add_argument("--seed", type=seed, default=0, help="scan seed (default: 0)")
-    parser.add_argument("--out", required=True, help="scan folder")
+    parser.add_argument("--out", type=output_folder, required=True, help="scan folder")
     parser.add_argument("--resume", action="store_true", help="finish the scan already in --out")
     parser.add_argument(
         "--workers", type=int, default=None, help="local processes (default: all cores)"
@@ -67,21 +78,21 @@ def add_arguments(parser) -> None:
     )
     parser.add_argument("--json", action="store_true", help="print one JSON object")
     parser.add_argument(
-        "--progress", default=None, help="write progress lines to this file (default: stderr)"
-    )
+        "--progress", type=output_file, default=None,
+        help="append progress lines to this file, in an existing folder (default: stderr)",
+    )  # fmt: skip
 
 
-#: The numbers of a scan point in the JSON output, and the keys renamed there so that the
-#: same quantity has the key of ``bbdyn simulate`` (standard errors over particles: ``_se``).
+#: The numbers of a scan point in the JSON output (the keys of ``load_scan``, docs/schema.md).
 POINT_KEYS = (
     "gamma",
     "D",
-    "D_err",
+    "D_se",
     "D_converged",
     "E",
-    "E_err",
+    "E_se",
     "E_x",
-    "E_x_err",
+    "E_x_se",
     "E_reference",
     "energy_stationary",
     "stuck_fraction",
@@ -89,7 +100,6 @@ POINT_KEYS = (
     "trapped",
     "events",
 )
-JSON_KEYS = {"D_err": "D_se", "E_err": "E_se", "E_x_err": "E_x_se"}
 
 
 def _show_warning(message, category, filename, lineno, file=None, line=None) -> None:
@@ -99,13 +109,62 @@ def _show_warning(message, category, filename, lineno, file=None, line=None) -> 
     print(f"bbdyn scan: warning: {message}", file=sys.stderr)
 
 
-def run(args) -> int:
-    import json
-    import sys
+def resume_command(args) -> str:
+    """The command line that finishes the scan of ``args`` (``--resume`` once ``--out``
+    holds its manifest): the same grid, sizes, seed and model options."""
+    import shlex
+    from pathlib import Path
+
+    from bbdyn.scans.runner import MANIFEST
+
+    argv = ["bbdyn", "scan", "--f-start", repr(args.f_start), "--f-stop", repr(args.f_stop),
+            "--f-step", repr(args.f_step)]  # fmt: skip
+    argv += [f"--{k}={v!r}" for k, v in model_values(args).items() if v != PARAM_DEFAULTS[k]]
+    argv += ["--n", str(args.n), "--t", repr(args.t), "--seed", str(args.seed)]
+    if args.transient is not None:
+        argv += ["--transient", repr(args.transient)]
+    for option in ("workers", "scheduler", "progress"):
+        if getattr(args, option) is not None:
+            argv += [f"--{option}", str(getattr(args, option))]
+    argv += ["--out", args.out] + ["--json"] * args.json
+    return shlex.join(argv + ["--resume"] * (Path(args.out) / MANIFEST).exists())
+
+
+def saved_points(out: str) -> str:
+    """How many points of the scan in ``out`` are saved, e.g. ``3 of 10 points are saved``."""
     import warnings
 
+    from bbdyn.scans.runner import load_scan
+
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")  # a damaged point is simply not counted
+            scan = load_scan(out, partial=True)
+    except (OSError, ValueError):  # no manifest yet, or a damaged one
+        return "no point is saved"
+    total = len(scan.meta["values"])
+    return f"{total - scan.meta['n_missing']} of {total} points are saved"
+
+
+def run(args) -> int:
+    import sys
+    import warnings
+    from pathlib import Path
+
+    from bbdyn.cli import Interrupted
     from bbdyn.scans.frequency import check_scan_size, frequency_grid, frequency_scan, grid_size
-    from bbdyn.scans.runner import ScanBusyError, ScanStorageError, SchedulerUnreachableError
+    from bbdyn.scans.runner import (
+        MANIFEST,
+        ScanBusyError,
+        ScanStorageError,
+        SchedulerUnreachableError,
+    )
+
+    if args.resume and not (Path(args.out) / MANIFEST).is_file():
+        raise ValueError(
+            f"--resume: {args.out} holds no scan to finish (no {MANIFEST}); check --out, "
+            "or leave out --resume to begin a new scan there"
+        )
 
     # size and arguments first: a refused scan allocates and writes nothing
     count = grid_size(args.f_start, args.f_stop, args.f_step)
@@ -117,6 +176,7 @@ def run(args) -> int:
           "of CPU time by the conservative event model, plus their compilation on first use (a "
           "bound, not a forecast: real runs make fewer, cheaper events; the progress line gives "
           "the time left once points finish)", file=sys.stderr)  # fmt: skip
+    clock = Clock()
     grid = frequency_grid(args.f_start, args.f_stop, args.f_step)
     log = open(args.progress, "a", buffering=1) if args.progress else None  # noqa: SIM115
     try:
@@ -135,6 +195,10 @@ def run(args) -> int:
                 progress=log if log else True,
                 model=model_values(args),
             )
+    except KeyboardInterrupt:
+        raise Interrupted(
+            f"{saved_points(args.out)} in {args.out}; finish the scan with: {resume_command(args)}"
+        ) from None
     except FileExistsError:
         raise ValueError(
             f"{args.out} already holds a scan: add --resume to finish it, or choose a new --out"
@@ -145,18 +209,9 @@ def run(args) -> int:
     finally:
         if log:
             log.close()
+    write_netcdf(scan, args.out, args.json)
     if args.json:
-        rows = [
-            {"f": float(f), **{JSON_KEYS.get(k, k): scan[k][i].item() for k in POINT_KEYS},
-             "cpu_s": scan.meta["points"][i]["wall_s"]}
-            for i, f in enumerate(scan.values)
-        ]  # fmt: skip
-        wall = sum(row["cpu_s"] for row in rows)
-        params = {**model_values(args), "g": PARAM_DEFAULTS["g"]}  # g is not an option here
-        out = {"out": args.out, "params": params, "cpu_s": wall}
-        units = units_of({**out, **rows[0]} if rows else out)
-        json.dump({**out, "units": {**units, "cpu_s": "s"}, "points": rows}, sys.stdout, indent=2)
-        print()
+        print_json(scan_output(scan, args, clock))
         return 0
     print(f"{'f (Hz)':>8} {'D (mm^2/s)':>20} {'E':>18} {'E_x':>16} {'A^2w^2/2':>9}  flags")
     for i, f in enumerate(scan.values):
@@ -165,9 +220,40 @@ def run(args) -> int:
         if scan["trapped"][i]:
             flags.append("trapped")
         print(
-            f"{f:8.3f} {scan['D'][i]:11.4g} +- {scan['D_err'][i]:<6.2g}"
-            f" {scan['E'][i]:9.5g} +- {scan['E_err'][i]:<5.2g}"
-            f" {scan['E_x'][i]:8.4g} +- {scan['E_x_err'][i]:<5.2g} {scan['E_reference'][i]:9.5g}"
+            f"{f:8.3f} {scan['D'][i]:11.4g} +- {scan['D_se'][i]:<6.2g}"
+            f" {scan['E'][i]:9.5g} +- {scan['E_se'][i]:<5.2g}"
+            f" {scan['E_x'][i]:8.4g} +- {scan['E_x_se'][i]:<5.2g} {scan['E_reference'][i]:9.5g}"
             f"  {' '.join(flags)}"
         )
     return 0
+
+
+def write_netcdf(scan, out: str, json_mode: bool) -> None:
+    """Write the finished scan as ``out/scan.nc``; without xarray, a note naming the extra."""
+    from pathlib import Path
+
+    from bbdyn.scans.runner import IO_EXTRA
+
+    path = Path(out) / NETCDF
+    try:
+        scan.to_netcdf(path)
+    except ImportError:
+        report_written(f"bbdyn scan: note: {path} not written: {IO_EXTRA}", True)
+        return
+    report_written(f"netCDF: {path}", json_mode)
+
+
+def scan_output(scan, args, clock) -> dict:
+    """The JSON object of a finished scan: every point with its own CPU and wall time; the
+    scan's CPU time is the sum of the points' (the workers' process CPU time)."""
+    times = scan.point_times()
+    rows = [
+        {"f": float(f), **{k: scan[k][i].item() for k in POINT_KEYS},
+         "cpu_s": float(times["cpu_s"][i]), "wall_s": float(times["wall_s"][i])}
+        for i, f in enumerate(scan.values)
+    ]  # fmt: skip
+    params = {**model_values(args), "g": PARAM_DEFAULTS["g"]}  # g is not an option here
+    body = {"out": args.out, "n": args.n, "t": args.t, "points": rows}
+    out = json_output(body, params=params, clock=clock, seed=args.seed)
+    out["cpu_s"] = float(times["cpu_s"].sum())
+    return out

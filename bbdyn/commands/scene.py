@@ -1,6 +1,6 @@
 """`bbdyn scene ID [--quick|--medium|--full] [--out DIR]`: draw one scene, save its numbers."""
 
-from bbdyn.commands import add_setting_arguments, seed
+from bbdyn.commands import add_setting_arguments, output_folder, seed
 from bbdyn.scenes import SCENES
 
 HELP = f"compute and draw one scene ({', '.join(SCENES)}), saving its numbers beside the figure"
@@ -9,7 +9,9 @@ HELP = f"compute and draw one scene ({', '.join(SCENES)}), saving its numbers be
 def add_arguments(parser) -> None:
     parser.add_argument("scene_id", metavar="ID", help="scene id, e.g. S1")
     add_setting_arguments(parser)
-    parser.add_argument("--out", default="out", help="output folder (default: out)")
+    parser.add_argument(
+        "--out", type=output_folder, default="out", help="output folder (default: out)"
+    )
     parser.add_argument("--seed", type=seed, default=0, help="random seed (default: 0)")
 
 

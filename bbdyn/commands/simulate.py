@@ -6,25 +6,26 @@ period-averaged energies, the stuck fraction and the collision rate of the
 reference ensemble (docs/model.md, section 3), with the parameters, seed, version
 and wall time.  Progress is shown on stderr when it is a terminal (not with --json).
 
-JSON keys: ``version``, ``params`` (f Hz, A mm, g mm/s^2, alpha, beta, R mm, d mm),
-``gamma``, ``seed``, ``n``, ``t``, ``transient`` (s), ``threads``, ``fast_forward``; ``n_ok``,
-``n_failed``, ``failures``; ``D``, ``D_se`` (mm^2/s); ``E``, ``E_x``, ``E_y``,
-``E_pot``, ``E_reference`` with ``_se`` (kg mm^2/s^2); ``stuck_fraction``(``_se``);
-``collisions_per_particle_per_s``, ``jumps_per_particle_per_s`` (1/s); ``D_windows``
-(``t_centre`` s, ``D``, ``D_se``); ``collisions``; ``wall_s`` (s); ``units`` (the unit of
-each dimensioned key).
+JSON keys (docs/schema.md): ``version``, ``params`` (f Hz, A mm, g mm/s^2, alpha, beta,
+R mm, d mm), ``seed``, ``gamma``, ``n``, ``t``, ``transient`` (s), ``threads``,
+``fast_forward``; ``n_ok``, ``n_failed``, ``failures``; ``D``, ``D_se`` (mm^2/s); ``E``,
+``E_x``, ``E_y``, ``E_pot``, ``E_reference`` with ``_se`` (kg mm^2/s^2);
+``stuck_fraction`` (``_se``); ``collision_rate``, ``jump_rate`` (per particle, 1/s);
+``D_windows`` (``t_centre`` s, ``D``, ``D_se``); ``collisions``; ``cpu_s``, ``wall_s`` (s);
+``units`` (the unit of each dimensioned key).
 """
 
 from bbdyn.commands import (
+    Clock,
     add_ensemble_arguments,
     add_model_arguments,
     add_save_argument,
     finite,
-    jsonable,
+    json_output,
     params_from,
+    print_json,
     run_progress,
     save_result,
-    units_of,
 )
 from bbdyn.core.status import FAST_FORWARD_MODES
 
@@ -48,10 +49,10 @@ def add_arguments(parser) -> None:
 
 def simulate_summary(args) -> dict:
     """Run the ensemble described by ``args`` and return the printed quantities."""
-    from bbdyn import __version__
     from bbdyn.diffusion import einstein_D_windows
     from bbdyn.ensemble import ensemble
 
+    clock = Clock()
     params = params_from(args)
     bar = run_progress("simulate", args.t, args.json)
     res = ensemble(
@@ -68,25 +69,20 @@ def simulate_summary(args) -> dict:
     bar.close()
     if args.save:
         save_result(res, args.save, args.json)
-    out = {"version": __version__, "params": params.to_dict(), "gamma": params.gamma}
-    out.update(seed=args.seed, n=args.n, t=args.t, transient=res.meta["transient"])
+    out = {"gamma": params.gamma, "n": args.n, "t": args.t, "transient": res.meta["transient"]}
     out["threads"] = res.meta["threads"]
     out["fast_forward"] = res.meta["fast_forward"]
     out.update(res.summary())
     centres, D_w, se_w = einstein_D_windows(res["sample_times"], res["displacement"][res.ok])
     out["D_windows"] = {"t_centre": centres.tolist(), "D": D_w.tolist(), "D_se": se_w.tolist()}
     out["collisions"] = int(res["collisions"].sum())
-    out["wall_s"] = res.meta["wall_s"]
-    out["units"] = units_of(out)
-    return out
+    return json_output(out, params=params.to_dict(), clock=clock, seed=args.seed)
 
 
 def run(args) -> int:
-    import json
-
     out = simulate_summary(args)
     if args.json:
-        print(json.dumps(jsonable(out), indent=2))
+        print_json(out)
         return 0
     p = out["params"]
     print(f"bbdyn {out['version']}  f = {p['f']} Hz  n = {out['n']}  t = {out['t']} s  "
@@ -96,9 +92,10 @@ def run(args) -> int:
         print(f"  {name:<14} = {out[name]:.5g} +- {out[name + '_se']:.2g} {unit}")
     print(f"  A^2 w^2 / 2    = {out['E_reference']:.5g}")
     print(f"  stuck fraction = {out['stuck_fraction']:.4g}")
-    print(f"  collisions     = {out['collisions_per_particle_per_s']:.5g} per particle per s")
+    print(f"  collisions     = {out['collision_rate']:.5g} per particle per s")
     print("  D by window    = " + ", ".join(
         f"{d:.3g}+-{s:.2g}" for d, s in zip(out["D_windows"]["D"], out["D_windows"]["D_se"],
                                             strict=True)))  # fmt: skip
-    print(f"  wall time      = {out['wall_s']:.2f} s on {out['threads']} thread(s)")
+    print(f"  time           = {out['cpu_s']:.2f} s CPU, {out['wall_s']:.2f} s wall "
+          f"on {out['threads']} thread(s)")  # fmt: skip
     return 0

@@ -1,12 +1,22 @@
 """`bbdyn tongues [--A 0.1 --alpha 0.5 --g 9800] [--kmax 3] [--closed-form] [--json]`: k/1 tongues.
 
 The model options are those of every flat-ball command (``add_model_arguments``).
-JSON: a list, one object per k, with ``k``, ``gamma_lo``, ``gamma_hi`` (Gamma = A w^2 / g,
-dimensionless; closed form), ``gamma_lo_numeric``, ``gamma_hi_numeric`` (from the exact
-map's multipliers; null with --closed-form or at alpha = 0), ``f_lo_hz``, ``f_hi_hz`` (Hz).
+JSON (docs/schema.md): ``version``, ``params`` (A mm, alpha, g mm/s^2), ``cpu_s``,
+``wall_s``, ``units`` and ``tongues``, one object per k, with ``k``, ``gamma_lo``,
+``gamma_hi`` (Gamma = A w^2 / g, dimensionless; closed form), ``gamma_lo_numeric``,
+``gamma_hi_numeric`` (from the exact map's multipliers; null with --closed-form or at
+alpha = 0), ``f_lo``, ``f_hi`` (Hz).
 """
 
-from bbdyn.commands import add_model_arguments, duration, integer_in, jsonable
+from bbdyn.commands import (
+    Clock,
+    add_model_arguments,
+    duration,
+    integer_in,
+    json_output,
+    model_values,
+    print_json,
+)
 
 HELP = "k/1 Arnold tongue edges of the flat ball: closed form and from the exact map's multipliers"
 
@@ -26,7 +36,7 @@ def add_arguments(parser) -> None:
     parser.add_argument(
         "--kmax", type=kmax_type, default=3, help="largest k (default: %(default)s)"
     )
-    parser.add_argument("--json", action="store_true", help="print a JSON list, one object per k")
+    parser.add_argument("--json", action="store_true", help="print one JSON object")
     parser.add_argument(
         "--closed-form",
         action="store_true",
@@ -35,10 +45,9 @@ def add_arguments(parser) -> None:
 
 
 def run(args) -> int:
-    import json
-
     from bbdyn.tongues import OrbitNotFound, tongue_table
 
+    clock = Clock()
     numeric = args.alpha > 0 and not args.closed_form  # at alpha = 0 the k/1 orbit sticks
     try:
         table = tongue_table(args.alpha, args.kmax, args.A, args.g, numeric=numeric)
@@ -49,7 +58,8 @@ def run(args) -> int:
         ) from err
     rows = table.rows()
     if args.json:
-        print(json.dumps(jsonable(rows), indent=2))
+        body = {"kmax": args.kmax, "tongues": rows}
+        print_json(json_output(body, params=model_values(args), clock=clock))
         return 0
     print(f"k/1 tongues, alpha = {args.alpha}, A = {args.A} mm, g = {args.g} mm/s^2")
     print(

@@ -98,6 +98,7 @@ from bbdyn.core.tolerances import FMA
 #: layer allocates for it.
 __all__ = [
     "initial_states",
+    "leaving_floor",
     "start_particles",
     "particle_loop",
     "run_ensemble",
@@ -129,6 +130,23 @@ __all__ = [
 ]
 
 
+@njit(cache=True, fastmath=FMA, inline="always")
+def leaves_floor(s, vx, vyrel, kp):
+    """Whether a velocity ``(vx, vyrel)`` (mm/s, relative to the floor) at arc length ``s``
+    (mm from the left wedge) leaves the arc: a post-collision state (normal component > 0)."""
+    xi = xi_from_arc_length(s, kp)
+    vn, _ = normal_velocity(xi, arc_root(xi, kp), vx, vyrel, kp.R)
+    return vn > 0.0
+
+
+@njit(cache=True, fastmath=FMA)
+def leaving_floor(ics, u, kp, ok):
+    """``ok[i]``: whether ``ics[i] = (s, vx+, vy+)`` (absolute velocities) leaves the floor
+    moving with velocity ``u`` (mm/s), as ``initial_states`` checks it."""
+    for i in range(ics.shape[0]):
+        ok[i] = leaves_floor(ics[i, 0], ics[i, 1], ics[i, 2] - u, kp)
+
+
 @njit(cache=True, fastmath=FMA)
 def initial_states(ics, kp, states):
     """Kernel states of post-collision initial conditions on the floor of tile 0 at t = 0.
@@ -152,8 +170,7 @@ def initial_states(ics, kp, states):
     for i in range(ics.shape[0]):
         xi = xi_from_arc_length(ics[i, 0], kp)
         vyrel = ics[i, 2] - u0
-        vn, _ = normal_velocity(xi, arc_root(xi, kp), ics[i, 1], vyrel, kp.R)
-        if not vn > 0.0 and first_bad < 0:
+        if not leaves_floor(ics[i, 0], ics[i, 1], vyrel, kp) and first_bad < 0:
             first_bad = i
         states[i, 0] = 0.0
         states[i, 1] = 0.0

@@ -16,7 +16,7 @@ import json
 import os
 from pathlib import Path
 
-__all__ = ["FAMILIES", "scene_folder", "setting_grid", "grid_cpu_estimate", "diffusion_scan",
+__all__ = ["FAMILIES", "scene_folder", "setting_grid", "grid_cpu_forecast", "diffusion_scan",
            "gk_scene_scan"]  # fmt: skip
 
 #: scan family -> the setting keys that define its scan (with the seed and the version)
@@ -56,12 +56,14 @@ def setting_grid(settings: dict):
     return frequency_grid(settings["f_start"], settings["f_stop"], settings["f_step"])
 
 
-def grid_cpu_estimate(settings: dict) -> float:
-    """Upper estimate of the CPU time (s) of the scan of a grid setting (``n`` particles for
-    ``t`` s at every frequency of ``setting_grid``; ``bbdyn.scans.frequency.cpu_estimate``)."""
-    from bbdyn.scans.frequency import cpu_estimate
+def grid_cpu_forecast(settings: dict) -> dict[str, float]:
+    """Forecast of the CPU time (s) of the scan of a grid setting (``n`` particles for ``t`` s
+    at every frequency of ``setting_grid``): ``bbdyn.scans.frequency.scan_cpu_forecast``."""
+    from bbdyn.scans.frequency import scan_cpu_forecast
 
-    return cpu_estimate(setting_grid(settings).sum(), settings["n"], settings["t"])
+    grid = setting_grid(settings)
+    return scan_cpu_forecast(grid.sum(), grid.size, settings["n"], settings["t"],
+                             workers=settings.get("workers"))  # fmt: skip
 
 
 def diffusion_scan(settings: dict, seed: int, out_dir=None, progress=False):

@@ -7,13 +7,13 @@ that it has converged.  ``frequency_scan`` runs it over a grid of frequencies.
 
 Errors and convergence, per frequency:
 
-* ``D, D_err``: late-window MSD slope / 2, ``[t/2, t]``, standard error over
-  particles (``bbdyn.diffusion.einstein_D``); ``D_boot_err, D_boot_lo, D_boot_hi``:
+* ``D, D_se``: late-window MSD slope / 2, ``[t/2, t]``, standard error over
+  particles (``bbdyn.diffusion.einstein_D``); ``D_boot_se, D_boot_lo, D_boot_hi``:
   a bootstrap over particles as an independent check of that error and of its skew.
-* ``D_windows, D_windows_err``: D in 4 successive windows of ``[t/5, t]``;
+* ``D_windows, D_windows_se``: D in 4 successive windows of ``[t/5, t]``;
   ``D_windows_p``: p-value of "D is the same in every window" (Hotelling T^2 over
   particles, ``bbdyn.diffusion.window_consistency``); ``D_converged`` is 0 if p < P_FLAG.
-* ``E_drift, E_drift_err`` (and ``E_x_drift``): late minus early half of the
+* ``E_drift, E_drift_se`` (and ``E_x_drift``): late minus early half of the
   averaging window, mean over the particles with its standard error;
   ``energy_stationary`` is 0 if either drift differs from 0 at p < P_FLAG and by more
   than the rounding of the energy integrals (a particle stuck for good has the same
@@ -21,7 +21,9 @@ Errors and convergence, per frequency:
   each particle and free: the ensemble integrates the early half on the way
   (``E_halves``, ``E_x_halves`` of ``bbdyn.ensemble.ensemble``).
 * ``trapped``: 1 if every particle was stuck for good (Gamma <= 1) before the first
-  D window began; then x is constant there and D = 0 exactly (``D_err = 0``).
+  D window began; then x is constant there and D = 0 exactly (``D_se = 0``).
+
+The keys are those of the result schema (``bbdyn.schema``, docs/schema.md).
 """
 
 from __future__ import annotations
@@ -41,6 +43,7 @@ __all__ = [
     "average_rounding",
     "check_scan_size",
     "cpu_estimate",
+    "scan_cpu_forecast",
     "diffusion_fit",
     "diffusion_point",
     "energy_scale",
@@ -131,10 +134,59 @@ def _check_point_arguments(params: Params, n, t, transient, n_samples) -> int:
 def cpu_estimate(f_sum: float, n: int, t: float) -> float:
     """CPU time (s) of ``n`` particles for ``t`` s at frequencies summing to ``f_sum`` (Hz),
     from the ensemble's conservative event model (``bbdyn.ensemble.EVENTS_PER_PERIOD``
-    events per period at ``EVENT_COST_S`` each): an upper estimate, real runs are faster."""
+    events per period at ``EVENT_COST_S`` each): an upper bound for refusing oversized
+    scans, tens of times the CPU time of typical scans (``scan_cpu_forecast`` forecasts it)."""
     from bbdyn.ensemble import EVENT_COST_S, EVENTS_PER_PERIOD
 
     return float(f_sum) * float(n) * float(t) * EVENTS_PER_PERIOD * EVENT_COST_S
+
+
+#: Forecast of a scan's CPU time (``scan_cpu_forecast``), measured as process time of the
+#: workers on this project's machine with one numba thread.  CPU time (s) per particle and
+#: driving period of a ``diffusion_point`` or ``gk_point`` with compiled kernels: 0.43-0.67
+#: us at the quick settings of S3, S9 and B6, 0.36 us for the full S3 scan (whose
+#: ensembles fast-forward more of their stick-release cycles).  Particles that stick for
+#: good cost nothing after they stick (Gamma <= 1): the forecast counts them all.
+POINT_PERIOD_CPU_S = 0.5e-6
+#: The same for a ``bbdyn.classify.classify`` point (scene B1: features per block, half the
+#: run a transient): 1.3 us at B1's quick setting.
+CLASSIFY_PERIOD_CPU_S = 1.3e-6
+#: CPU time (s) a local worker takes to start (forked from the scan's server process) and
+#: to load the compiled kernels of its points from numba's cache.
+WORKER_START_CPU_S = 1.0
+#: CPU time (s) a worker takes to compile the kernels of its points when numba's cache
+#: lacks them (the first run after installing or changing bbdyn): 45-60 s per worker
+#: (each worker compiles the kernels itself).
+WORKER_COMPILE_CPU_S = 60.0
+
+
+def scan_cpu_forecast(
+    f_sum: float,
+    n_points: int,
+    n: int,
+    t: float,
+    *,
+    period_cpu_s: float = POINT_PERIOD_CPU_S,
+    workers: int | None = None,
+) -> dict[str, float]:
+    """Forecast of the CPU time (s) of a local scan of ``n_points`` frequencies summing to
+    ``f_sum`` (Hz), ``n`` particles for ``t`` s each, summed over its worker processes
+    (``bbdyn.scans.runner.local_workers``).
+
+    Returns ``cpu_s``: the points (``period_cpu_s`` per particle and driving period) and the
+    workers' start-up, with compiled kernels; and ``compile_cpu_s``: what the workers add
+    when numba's cache lacks the kernels (``WORKER_COMPILE_CPU_S`` each), not included in
+    ``cpu_s``.  A forecast, not a bound: within a factor of 2 of the measured CPU time for
+    the scenes' quick and full scans (tests/test_cost_forecast.py).
+    """
+    from bbdyn.scans.runner import local_workers
+
+    procs = local_workers(workers, int(n_points))
+    points = float(f_sum) * float(n) * float(t) * float(period_cpu_s)
+    return {
+        "cpu_s": points + procs * WORKER_START_CPU_S,
+        "compile_cpu_s": procs * WORKER_COMPILE_CPU_S,
+    }
 
 
 def check_scan_size(
@@ -231,17 +283,17 @@ def diffusion_point(
     Returns
     -------
     dict
-        Floats (flags as 0/1) and arrays, see the module docstring; energies in
-        kg mm^2/s^2 (E, E_x, E_y, E_pot, each with ``_err``; ``E_reference`` = A^2 w^2 / 2),
-        D in mm^2/s, ``msd`` (n_samples,) in mm^2, ``sample_times`` (s), ``gamma``,
-        ``stuck_fraction``, ``collision_rate`` and ``jump_rate`` (per particle per s,
-        in the averaging window), ``flight_periods`` (mean flight time in periods) and
-        ``events`` (all events of the run, for the cost profile).
+        Floats (flags as 0/1) and arrays, see the module docstring; energies in kg mm^2/s^2
+        (E, E_x, E_y, E_pot, each with its standard error ``_se``; ``E_reference`` = A^2 w^2
+        / 2), D in mm^2/s, ``msd`` (n_samples,) in mm^2, ``sample_times`` (s), ``gamma``,
+        ``stuck_fraction``, ``collision_rate`` and ``jump_rate`` (per particle per s, in the
+        averaging window), ``flight_periods`` (mean flight time in periods) and ``events``
+        (all events of the run, for the cost profile).
 
     Examples
     --------
     >>> out = diffusion_point(49.0, np.random.SeedSequence(1), n=8, t=2.0)   # Gamma < 1
-    >>> out["trapped"], out["D"], out["D_err"]
+    >>> out["trapped"], out["D"], out["D_se"]
     (1, 0.0, 0.0)
     """
     from bbdyn.ensemble import ensemble
@@ -266,19 +318,19 @@ def diffusion_point(
     out["trapped"] = int(np.all(stuck_early))
     if out["trapped"]:
         zeros = np.zeros(N_WINDOWS)
-        out.update(D=0.0, D_err=0.0, D_boot_err=0.0, D_boot_lo=0.0, D_boot_hi=0.0)
-        out.update(D_windows=zeros, D_windows_err=zeros, D_windows_p=1.0, D_converged=1)
+        out.update(D=0.0, D_se=0.0, D_boot_se=0.0, D_boot_lo=0.0, D_boot_hi=0.0)
+        out.update(D_windows=zeros, D_windows_se=zeros, D_windows_p=1.0, D_converged=1)
     else:
         out.update(diffusion_fit(times, disp, boot_seed, n_boot))
     out["msd"] = np.mean(disp**2, axis=0)
     out["sample_times"] = times
 
     for name in ("E", "E_x", "E_y", "E_pot", "stuck_fraction"):
-        out[name], out[name + "_err"] = _mean_err(res[name])
+        out[name], out[name + "_se"] = _mean_err(res[name])
     out["E_reference"] = 0.5 * (params.A * params.w) ** 2
     t_window = res.meta["window_s"]
-    out["collision_rate"], out["collision_rate_err"] = _mean_err(res["collisions"] / t_window)
-    out["jump_rate"], out["jump_rate_err"] = _mean_err(res["jumps"] / t_window)
+    out["collision_rate"], out["collision_rate_se"] = _mean_err(res["collisions"] / t_window)
+    out["jump_rate"], out["jump_rate_se"] = _mean_err(res["jumps"] / t_window)
     total = int(res["collisions"].sum())
     flying = (1 - out["stuck_fraction"]) * n * t_window * f  # particle-periods in flight
     out["flight_periods"] = float(flying / total) if total else 0.0
@@ -291,9 +343,9 @@ def diffusion_point(
 def diffusion_fit(times, disp, boot_seed, n_boot: int = 1000) -> dict[str, float | np.ndarray]:
     """D of a scan point from displacements ``disp`` (n, m) in mm at ``times`` (m,) in s.
 
-    ``D, D_err``: Einstein slope over the late window ``D_WINDOW`` = [t/2, t] (mm^2/s);
-    ``D_boot_err, D_boot_lo, D_boot_hi``: its bootstrap (``n_boot`` resamples, seed
-    ``boot_seed``); ``D_windows, D_windows_err, D_windows_p, D_converged``: the window
+    ``D, D_se``: Einstein slope over the late window ``D_WINDOW`` = [t/2, t] (mm^2/s);
+    ``D_boot_se, D_boot_lo, D_boot_hi``: its bootstrap (``n_boot`` resamples, seed
+    ``boot_seed``); ``D_windows, D_windows_se, D_windows_p, D_converged``: the window
     consistency check (module docstring).
     """
     from bbdyn.diffusion import (
@@ -304,12 +356,12 @@ def diffusion_fit(times, disp, boot_seed, n_boot: int = 1000) -> dict[str, float
     )
 
     out: dict[str, float | np.ndarray] = {}
-    out["D"], out["D_err"] = (float(v) for v in einstein_D(times, disp, D_WINDOW))
+    out["D"], out["D_se"] = (float(v) for v in einstein_D(times, disp, D_WINDOW))
     se, lo, hi = einstein_D_bootstrap(times, disp, D_WINDOW, n_boot, boot_seed)
-    out.update(D_boot_err=se, D_boot_lo=lo, D_boot_hi=hi)
+    out.update(D_boot_se=se, D_boot_lo=lo, D_boot_hi=hi)
     _, d_w, se_w = einstein_D_windows(times, disp, N_WINDOWS, WINDOWS_START)
     _, _, p = window_consistency(times, disp, N_WINDOWS, WINDOWS_START)
-    out.update(D_windows=d_w, D_windows_err=se_w, D_windows_p=p)
+    out.update(D_windows=d_w, D_windows_se=se_w, D_windows_p=p)
     out["D_converged"] = int(p >= P_FLAG)
     return out
 
@@ -325,14 +377,14 @@ def _energy_drift(res, params: Params) -> dict[str, float]:
     ok = res.ok
     p0, split, p1 = res.meta["halves_periods"]
     if np.count_nonzero(ok) < 2 or split <= p0:
-        out = {name: math.nan for name in ("E_drift", "E_drift_err", "E_x_drift")}
-        return {**out, "E_x_drift_err": math.nan, "energy_stationary": 1}
+        out = {name: math.nan for name in ("E_drift", "E_drift_se", "E_x_drift")}
+        return {**out, "E_x_drift_se": math.nan, "energy_stationary": 1}
     out: dict[str, float] = {}
     stationary = True
     for name, scale in (("E", energy_scale(res["E"], params.g, params.A)), ("E_x", res["E_x"])):
         halves = res[name + "_halves"][ok]
         drift, err = _mean_err(halves[:, 1] - halves[:, 0])
-        out[name + "_drift"], out[name + "_drift_err"] = drift, err
+        out[name + "_drift"], out[name + "_drift_se"] = drift, err
         rounding = _drift_rounding(res["events"][ok], scale[ok], (p0, split, p1))
         stationary &= abs(drift) <= rounding or _two_sided_p(drift, err) >= P_FLAG
     out["energy_stationary"] = int(stationary)

@@ -32,6 +32,10 @@ __all__ = ["gk_run", "gk_numbers", "gk_point", "gk_scan"]
 JUMPS_PER_S_GUESS = 8.0
 
 
+#: ``D_a_reason`` of ``gk_run`` when no particle moves after the transient.
+NO_MOTION = "no kinetic energy after the transient (E_x = E_y = 0): r = E_y / E_x is 0 / 0"
+
+
 def gk_run(
     params: Params,
     *,
@@ -114,7 +118,12 @@ def gk_run(
     D, D_err = res.D()
     summary = res.summary()
     ratio = energy_ratio(res["E_x"], res["E_y"])
-    analytic = analytic_diffusion(params, ratio.r, ratio.r_err)
+    if math.isnan(ratio.r):  # E_x = E_y = 0: nothing moves (e.g. A = 0), r is 0 / 0
+        from bbdyn.approx.random_walk import AnalyticDiffusion
+
+        analytic = AnalyticDiffusion(math.nan, math.nan, math.nan, NO_MOTION)
+    else:
+        analytic = analytic_diffusion(params, ratio.r, ratio.r_err)
     meta = make_meta(
         params,
         seed=seed,
@@ -149,12 +158,14 @@ def gk_run(
 def gk_numbers(gk) -> dict:
     """The numbers of ``gk_run`` as floats and float arrays (units as in ``gk_run``).
 
-    Keys: ``tau``, ``tau_err`` (s); ``D_rw``, ``D_rw_err``, ``D_a``, ``D_a_err``, ``D``,
-    ``D_err`` (mm^2/s); ``r``, ``r_err``; ``p_f``, ``p_f_err``, ``p_b``, ``p_b_err``;
-    ``fraction_long`` (jumps longer than d); ``jumps_per_s``; ``E``, ``E_x``, ``E_y``;
-    ``D_n``, ``D_n_err`` (arrays, n = 0..nmax).  Undefined values are NaN (``tau`` is
-    inf when nothing jumped).
+    Keys of the result schema (``bbdyn.schema``, docs/schema.md): ``tau``, ``tau_se`` (s);
+    ``D_rw``, ``D_rw_se``, ``D_a``, ``D_a_se``, ``D``, ``D_se`` (mm^2/s); ``r``, ``r_se``;
+    ``p_f``, ``p_f_se``, ``p_b``, ``p_b_se``; ``fraction_long`` (jumps longer than d);
+    ``jump_rate`` (1/s); ``E``, ``E_x``, ``E_y``; ``D_n``, ``D_n_se`` (arrays, n =
+    0..nmax).  Undefined values are NaN (``tau`` is inf when nothing jumped).
     """
+    from bbdyn.schema import standard_key
+
     m = gk.meta
     out = {k: float(m[k]) for k in ("tau", "tau_err", "D_rw", "D_rw_err")}
     for k in ("D_a", "D_a_err", "r", "r_err", "D", "D_err", "E", "E_x", "E_y", "jumps_per_s"):
@@ -164,7 +175,7 @@ def gk_numbers(gk) -> dict:
     out["fraction_long"] = float(m["fraction_long"])
     out["D_n"] = np.asarray(gk.D_n, dtype=float)
     out["D_n_err"] = np.asarray(gk.D_n_err, dtype=float)
-    return out
+    return {standard_key(k): v for k, v in out.items()}  # the object's names -> the schema's
 
 
 def gk_point(

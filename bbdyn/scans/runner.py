@@ -31,7 +31,9 @@ import concurrent.futures as cf
 import contextlib
 import errno
 import functools
+import importlib
 import json
+import math
 import multiprocessing
 import os
 import signal
@@ -55,6 +57,7 @@ from bbdyn.results import (
     write_json_atomic,
 )
 from bbdyn.scans.progress import Progress, progress_stream
+from bbdyn.schema import standard_key
 
 __all__ = [
     "KEY_SCALE",
@@ -66,6 +69,7 @@ __all__ = [
     "ScanResult",
     "describe_compute",
     "load_scan",
+    "local_workers",
     "point_key",
     "point_seed",
     "run_scan",
@@ -361,7 +365,9 @@ def _point_done(stem: Path, manifest: dict[str, Any], key: int, value: float) ->
 
 # ---- one point, in a worker -----------------------------------------------------------------
 def _run_point(compute: Callable, value: float, seed: int) -> tuple[dict, dict]:
-    """Run one point (in a worker process): ``compute`` with one numba thread, timed."""
+    """Run one point (in a worker process): ``compute`` with one numba thread, timed by
+    the worker's own clocks: ``cpu_s`` is its process CPU time (``time.process_time``),
+    which does not grow when other processes share the core, ``wall_s`` wall-clock time."""
     import numba
 
     from bbdyn import __version__
@@ -369,10 +375,10 @@ def _run_point(compute: Callable, value: float, seed: int) -> tuple[dict, dict]:
     # One thread per point: a point's numbers never depend on the thread count,
     # and the processes (not threads) share the cores.
     numba.set_num_threads(1)
-    t0 = time.perf_counter()
+    cpu0, t0 = time.process_time(), time.perf_counter()
     out = compute(value, point_seed(seed, value))
-    wall = time.perf_counter() - t0
-    info = {"wall_s": wall, "host": socket.gethostname(), "pid": os.getpid()}
+    wall, cpu = time.perf_counter() - t0, time.process_time() - cpu0
+    info = {"cpu_s": cpu, "wall_s": wall, "host": socket.gethostname(), "pid": os.getpid()}
     info["bbdyn_version"] = __version__
     return out, info
 
@@ -531,6 +537,12 @@ def _available_cores() -> int:
     return os.cpu_count() or 1
 
 
+def local_workers(workers: int | None, n_points: int) -> int:
+    """Worker processes a local scan of ``n_points`` points to compute starts: ``workers``,
+    or else one per available core, and never more than points."""
+    return max(1, min(workers or _available_cores(), n_points))
+
+
 # ---- the scan -------------------------------------------------------------------------------
 def run_scan(
     values: Sequence[float],
@@ -620,7 +632,7 @@ def run_scan(
             try:
                 if todo:
                     if backend is None:
-                        backend = _LocalBackend(min(workers or _available_cores(), len(todo)))
+                        backend = _LocalBackend(local_workers(workers, len(todo)))
                     with _sigterm_as_interrupt():
                         _drive(backend, todo, compute, seed, name, stems, manifest, bar, out_dir)
             finally:
@@ -720,36 +732,174 @@ class ScanResult(Result):
         """The scanned values, shape (n_values,)."""
         return self.arrays[self.name]
 
-    def plot(self, ax=None, key: str | None = None):
-        """Plot the scalar output ``key`` (default: the first one) against the values.
+    def scalars(self) -> list[str]:
+        """Names of the outputs with one number per value (1-D arrays)."""
+        return [k for k, a in self.arrays.items() if k != self.name and a.ndim == 1]
 
-        Draws error bars when an output ``key + "_err"`` exists.  Returns the axes.
+    def plot(self, ax=None, key: str | None = None):
+        """Plot the scalar output ``key`` against the values, with error bars from its
+        standard error ``key + "_se"`` when the scan has one.
+
+        Default: ``"D"`` (D(f) of a frequency scan), else the first scalar output.
+        Returns the axes.
         """
         import matplotlib.pyplot as plt
 
-        scalars = [k for k, a in self.arrays.items() if k != self.name and a.ndim == 1]
+        from bbdyn.schema import SE
+
+        scalars = self.scalars()
         if key is None:
             if not scalars:
                 raise ValueError("this scan has no scalar output to plot")
-            key = scalars[0]
+            key = "D" if "D" in scalars else scalars[0]
         if key not in scalars:
             raise ValueError(f"key must be one of the scalar outputs {scalars}, got {key!r}")
         if ax is None:
             _, ax = plt.subplots()
         order = np.argsort(self.values, kind="stable")
         x, y = self.values[order], self.arrays[key][order]
-        err = self.arrays.get(key + "_err")
+        err = self.arrays.get(key + SE)
         if err is not None and err.ndim == 1:
             ax.errorbar(x, y, yerr=err[order], fmt="o-", ms=3, capsize=2)
         else:
             ax.plot(x, y, "o-", ms=3)
-        ax.set_xlabel(self.name)
-        ax.set_ylabel(key)
+        ax.set_xlabel(_label(self.name))
+        ax.set_ylabel(_label(key))
         return ax
+
+    def params(self) -> dict[str, float] | None:
+        """The model parameters of a frequency scan (``name == "f"``): the ``Params``
+        defaults with the compute function's fixed model arguments; None for other scans."""
+        if self.name != "f":
+            return None
+        from bbdyn.params import Params
+
+        defaults = {k: v for k, v in Params(f=1.0).to_dict().items() if k != "f"}
+        kwargs = self.meta["compute"]["kwargs"]
+        return {k: float(kwargs.get(k, v)) for k, v in defaults.items()}
+
+    def point_times(self) -> dict[str, np.ndarray]:
+        """``cpu_s`` and ``wall_s`` of each point (s): the CPU time of the worker process
+        that computed it and its wall-clock time (NaN where a point did not record one)."""
+        return {
+            k: np.array([p.get(k, math.nan) for p in self.meta["points"]], dtype=float)
+            for k in ("cpu_s", "wall_s")
+        }
+
+    def point_cpu_s(self) -> np.ndarray:
+        """CPU time of each point (s); a point computed before bbdyn recorded CPU time
+        counts its wall time, an upper bound of it (``point_times`` keeps them apart)."""
+        times = self.point_times()
+        return np.where(np.isnan(times["cpu_s"]), times["wall_s"], times["cpu_s"])
+
+    def to_xarray(self):
+        """The scan as an ``xarray.Dataset``: coordinate ``name`` (e.g. ``f``, Hz), each
+        output a variable (``D``, ``D_se``, ``E``, ... and the points' ``cpu_s``,
+        ``wall_s``) with its ``units`` and ``long_name`` (docs/schema.md); the
+        parameters, seed, compute function and provenance as attributes.
+
+        Needs xarray (``pip install 'bbdyn[io]'``).
+        """
+        from bbdyn.schema import DIMENSIONS, units_of
+
+        xr = _optional("xarray")
+        name = self.name
+        arrays = {k: a for k, a in self.arrays.items() if k != name} | self.point_times()
+        variables = {}
+        for key, values in arrays.items():
+            trailing = DIMENSIONS.get(key, ())
+            if len(trailing) != values.ndim - 1:
+                trailing = tuple(f"{key}_dim{i}" for i in range(1, values.ndim))
+            variables[key] = ((name, *trailing), values, _variable_attrs(key))
+        coords = {name: (name, self.values, _variable_attrs(name))}
+        meta = self.meta
+        attrs = {
+            "title": f"bbdyn scan over {name}",
+            "seed": meta["seed"],
+            "compute": json.dumps(meta["compute"]),
+            "seed_rule": meta.get("seed_rule", ""),
+            "units": json.dumps(units_of({name: 0, **arrays})),
+            "bbdyn_version": meta.get("bbdyn_version", ""),
+            "bbdyn_source": meta.get("bbdyn_source", ""),
+            "created_utc": meta.get("created_utc", ""),
+            "python": meta.get("python", ""),
+            "machine": meta.get("machine", ""),
+            "n_missing": meta.get("n_missing", 0),
+            "cpu_s": float(np.nansum(arrays["cpu_s"])),
+        }
+        params = self.params()
+        if params is not None:
+            attrs["params"] = json.dumps(params)
+        return xr.Dataset(variables, coords=coords, attrs=attrs)
+
+    def to_netcdf(self, path: str | os.PathLike) -> Path:
+        """Write ``to_xarray()`` to the netCDF file ``path`` (written to a temporary file
+        and renamed, so the file is complete or absent); returns the path.
+
+        Needs xarray (``pip install 'bbdyn[io]'``); the file is netCDF4 when the netCDF4
+        or h5netcdf package is installed, else netCDF3 (scipy).
+        """
+        path = Path(path)
+        dataset = self.to_xarray()
+        tmp = path.with_name(f"{path.name}.{os.getpid()}.tmp")
+        try:
+            dataset.to_netcdf(tmp)
+            os.replace(tmp, path)
+        except BaseException:
+            with contextlib.suppress(OSError):
+                os.unlink(tmp)
+            raise
+        return path
+
+    def to_dataframe(self):
+        """The scalar outputs and the points' ``cpu_s``, ``wall_s`` as a ``pandas.DataFrame``
+        indexed by the scanned values (column units in ``df.attrs["units"]``).
+
+        Needs pandas (``pip install 'bbdyn[io]'``).
+        """
+        from bbdyn.schema import units_of
+
+        pd = _optional("pandas")
+        columns = {k: self.arrays[k] for k in self.scalars()} | self.point_times()
+        frame = pd.DataFrame(columns, index=pd.Index(self.values, name=self.name))
+        frame.attrs["units"] = units_of({self.name: 0, **columns})
+        return frame
+
+
+#: What to install for the exports of ``ScanResult``.
+IO_EXTRA = "install the io extra: pip install 'bbdyn[io]'"
+
+
+def _optional(module: str):
+    """Import the optional dependency ``module``; ImportError naming the extra if absent."""
+    try:
+        return importlib.import_module(module)
+    except ImportError:
+        raise ImportError(f"this needs {module}, which is not installed: {IO_EXTRA}") from None
+
+
+def _label(key: str) -> str:
+    """Axis label ``key (unit)``, or ``key`` for a dimensionless key or one outside the schema."""
+    from bbdyn.schema import is_quantity, unit
+
+    u = unit(key) if is_quantity(key) else ""
+    return f"{key} ({u})" if u else key
+
+
+def _variable_attrs(key: str) -> dict[str, str]:
+    """``units`` (CF: "1" if dimensionless) and ``long_name`` of a variable from the schema;
+    none for a key outside it."""
+    from bbdyn.schema import describe, is_quantity, unit
+
+    return {"units": unit(key) or "1", "long_name": describe(key)} if is_quantity(key) else {}
 
 
 def load_scan(out_dir: str | os.PathLike, *, partial: bool = False) -> ScanResult:
     """Load a scan folder written by ``run_scan`` (without unpickling anything).
+
+    The outputs of bbdyn's own compute functions (``diffusion_point``, ``gk_point``, ...)
+    get the keys of the result schema (``bbdyn.schema.standard_key``: standard errors
+    ``X_se``, ``collision_rate``; docs/schema.md); other compute functions keep their keys.
 
     With ``partial=True`` an unfinished scan loads its finished points only (a damaged
     point is left out with a ``DamagedPointWarning``); otherwise a missing point raises
@@ -784,6 +934,9 @@ def load_scan(out_dir: str | os.PathLike, *, partial: bool = False) -> ScanResul
         )
     arrays = {name: np.asarray(done, dtype=float)}
     if points:
+        if manifest["compute"]["function"].startswith("bbdyn."):  # bbdyn's: the schema's keys
+            for point in points:
+                point.arrays = {standard_key(k): a for k, a in point.arrays.items()}
         names = list(points[0].arrays)
         for value, point in zip(done, points, strict=True):
             if list(point.arrays) != names:

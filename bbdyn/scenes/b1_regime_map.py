@@ -67,12 +67,14 @@ class SceneB1Result(Result):
         return ax if ax is not None else fig.axes[0]
 
 
-def cost(settings: dict) -> float:
-    """Upper estimate of the CPU time (s) of the classification scan of ``settings``."""
-    from bbdyn.scans.frequency import cpu_estimate
+def cost(settings: dict) -> dict[str, float]:
+    """Forecast of the CPU time (s) of the classification scan of ``settings``:
+    ``bbdyn.scans.frequency.scan_cpu_forecast`` at a classification's cost per period."""
+    from bbdyn.scans.frequency import CLASSIFY_PERIOD_CPU_S, scan_cpu_forecast
 
     f_sum = 0.5 * (settings["f_min"] + settings["f_max"]) * settings["n_f"]
-    return cpu_estimate(f_sum, settings["n"], settings["t"])
+    size = (f_sum, settings["n_f"], settings["n"], settings["t"])
+    return scan_cpu_forecast(*size, period_cpu_s=CLASSIFY_PERIOD_CPU_S, workers=settings["workers"])
 
 
 def compute(settings: dict, seed: int = 0, out_dir=None, progress=False) -> SceneB1Result:

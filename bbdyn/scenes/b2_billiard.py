@@ -66,7 +66,14 @@ from bbdyn.reference.heyoka_flight import (
     heyoka_version,
     missing_note,
 )
-from bbdyn.reference.timing import ERROR_COLUMNS, format_rows, measure, single_thread
+from bbdyn.reference.timing import (
+    ERROR_COLUMNS,
+    format_rows,
+    measure,
+    rate_columns,
+    rate_key,
+    single_thread,
+)
 from bbdyn.results import Result, make_meta
 
 __all__ = [
@@ -264,13 +271,12 @@ def _bench_exact(kp, states, starts, ref, settings) -> list[dict[str, Any]]:
         repeats=settings["repeats"],
         min_time=settings["min_time"],
     )
-    rate = timing.per_second(n * reps)
     rows = [
         {
             "method": "exact",
             "setting": f"one flight + impact law (ROOT_STEP_REL = {ROOT_STEP_REL / EPS:g} eps)",
-            "impacts_per_s": rate,
-            "collisions_per_s": rate,
+            **timing.rates("impacts", n * reps),
+            **timing.rates("collisions", n * reps),
             **errors,
         }
     ]
@@ -288,9 +294,9 @@ def _bench_exact(kp, states, starts, ref, settings) -> list[dict[str, Any]]:
         {
             "method": "exact",
             "setting": f"continuous run, {n_events} events, 1 thread",
-            "impacts_per_s": timing.per_second(collisions),
-            "collisions_per_s": timing.per_second(collisions),
-            "events_per_s": timing.per_second(n_events),
+            **timing.rates("impacts", collisions),
+            **timing.rates("collisions", collisions),
+            **timing.rates("events", n_events),
             "steps_per_flight": steps / flights,
             "stick_share": sticks / collisions,
             "max_time_error_s": errors["max_time_error_s"],
@@ -321,8 +327,8 @@ def _bench_ensemble(params, settings) -> dict[str, Any]:
     return {
         "method": "exact",
         "setting": f"ensemble n={cfg['n']}, t={cfg['t']:g} s, {threads} threads",
-        "impacts_per_s": rate,
-        "collisions_per_s": rate,
+        **timing.rates("impacts", counts[-1]),
+        **timing.rates("collisions", counts[-1]),
         "collisions_per_s_per_core": rate / threads,
         "threads": threads,
         "max_time_error_s": math.nan,
@@ -343,10 +349,10 @@ def _bench_fixed(kp, starts, ref, settings) -> list[dict[str, Any]]:
 
         timing = measure(run, repeats=settings["repeats"], min_time=settings["min_time"])
         tau, _, _, vx, vy = out
-        rate = timing.per_second(n)
         row = {"method": "fixed_step", "setting": f"dt={dt:g} s, dt_min={dt_min:g} s"}
         row.update(dt=dt, dt_min=dt_min, gap_evals_per_impact=evals[0] / n)
-        row.update(impacts_per_s=rate, collisions_per_s=rate, **_errors(ref, tau, vx, vy, dt_min))
+        row.update(timing.rates("impacts", n), **timing.rates("collisions", n))
+        row.update(_errors(ref, tau, vx, vy, dt_min))
         rows.append(row)
     return rows
 
@@ -367,9 +373,8 @@ def _bench_heyoka(kp, starts, ref, settings) -> list[dict[str, Any]]:
             vy[i] = vyr - kp.A * kp.w * math.cos(phase + kp.w * tau[i])
 
     timing = measure(run, repeats=settings["repeats"], min_time=settings["min_time"])
-    rate = timing.per_second(n)
     row = {"method": "heyoka", "setting": f"Taylor order {taylor.ta.order}, tol=eps, + impact law"}
-    row.update(tol=taylor.ta.tol, impacts_per_s=rate, collisions_per_s=rate)
+    row.update(tol=taylor.ta.tol, **timing.rates("impacts", n), **timing.rates("collisions", n))
     row.update(_errors(ref, tau, vx, vy))
     return [row]
 
@@ -418,8 +423,8 @@ def _profile(settings) -> list[dict[str, Any]]:
         rows.append(
             {
                 "f": f,
-                "collisions_per_s": timing.per_second(collisions),
-                "events_per_s": timing.per_second(n_events),
+                **timing.rates("collisions", collisions),
+                **timing.rates("events", n_events),
                 "steps_per_flight": steps / flights,
                 "tiny_share": tiny / flights,
                 "stick_share": sticks / collisions,
@@ -453,13 +458,14 @@ class BilliardBenchResult(Result):
             _, ax = plt.subplots()
         floor = 1e-19
         number = 1
+        speed, clock = rate_key(self.meta["rows"], "collisions")
         for method, marker, rows in self.drawn_rows():
-            cost = np.array([1e6 / r["collisions_per_s"] for r in rows])
+            cost = np.array([1e6 / r[speed] for r in rows])
             err = np.array([max(r["max_time_error_s"], floor) for r in rows])
             ax.loglog(cost, err, marker, label=method.replace("_", " "))
             number = number_points(ax, cost, err, number)
         ax.axhline(1e-12, color="0.6", lw=0.8, ls="--", label="target: 1e-12 s")
-        ax.set_xlabel("cost per collision (µs, single core)")
+        ax.set_xlabel(f"cost per collision (µs of {clock}, single core)")
         ax.set_ylabel("max one-step error of impact time (s)")
         ax.legend(fontsize=8)
         return ax
@@ -507,9 +513,9 @@ def compute(settings: dict[str, Any], *, log=None) -> BilliardBenchResult:
     rows += _bench_fixed(kp, starts, ref, settings)
     log("bench billiard: heyoka" if heyoka_available() else "bench billiard: heyoka not installed")
     rows += _bench_heyoka(kp, starts, ref, settings)
-    exact_speed = rows[0]["collisions_per_s"]
+    speed, _ = rate_key(rows, "collisions")  # CPU time: not inflated by the machine's load
     for row in rows:
-        row["cost_ratio_to_exact"] = exact_speed / row["collisions_per_s"]
+        row["cost_ratio_to_exact"] = rows[0][speed] / row[speed]
     log("bench billiard: D and energies, exact vs fixed step")
     observables = _observables(params, settings)
     log("bench billiard: profile over frequencies")
@@ -556,7 +562,7 @@ def draw(result: BilliardBenchResult):
 
 def table(result: BilliardBenchResult) -> str:
     """The rows, the observables comparison and the profile as plain text."""
-    columns = (("collisions_per_s", "coll/s", 9, ".3g"), *ERROR_COLUMNS)
+    columns = (*rate_columns(result.meta["rows"], "collisions", "coll", 9), *ERROR_COLUMNS)
     lines = format_rows(result.meta["rows"], columns, 48)
     lines += missing_note(result.meta.get("peers"))
     cfg = result.meta["settings"]["observables"]
@@ -570,13 +576,16 @@ def table(result: BilliardBenchResult) -> str:
         text += f"  coll/particle/s {r['collisions_per_particle_per_s']:.4g}"
         lines.append(text)
     lines += ["", "profile (continuous run, 1 thread):"]
+    profile = result.meta["profile"]
+    rates = rate_columns(profile, "collisions", "coll", 9)
     lines.append(
-        f"{'f (Hz)':>7} {'coll/s':>9} {'steps/flight':>12} {'tiny hops':>9} {'stick share':>11} "
-        f"{'ns/event':>8}"
+        f"{'f (Hz)':>7}" + "".join(f" {head:>{width}}" for _, head, width, _ in rates)
+        + f" {'steps/flight':>12} {'tiny hops':>9} {'stick share':>11} {'ns/event':>8}"
     )
-    for r in result.meta["profile"]:
+    for r in profile:
         lines.append(
-            f"{r['f']:>7g} {r['collisions_per_s']:>9.3g} {r['steps_per_flight']:>12.2f} "
-            f"{r['tiny_share']:>9.3f} {r['stick_share']:>11.3f} {r['ns_per_event']:>8.1f}"
+            f"{r['f']:>7g}" + "".join(f" {r[key]:>{width}{spec}}" for key, _, width, spec in rates)
+            + f" {r['steps_per_flight']:>12.2f} {r['tiny_share']:>9.3f} {r['stick_share']:>11.3f}"
+            f" {r['ns_per_event']:>8.1f}"
         )
     return "\n".join(lines)

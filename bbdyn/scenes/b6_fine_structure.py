@@ -54,7 +54,7 @@ CENTRE_MARKERS = ("o", "s", "D", "^", "v", "P")
 
 class FineStructureResult(Result):
     """Arrays: per frequency ``f`` (Hz), ``D``, ``D_err`` (mm^2/s), ``centre``, ``level``
-    (indices), ``cpu_s`` (wall s of the point's process); ``centres`` (c,) Hz, ``steps``
+    (indices), ``cpu_s`` (CPU s of the point's worker process); ``centres`` (c,) Hz, ``steps``
     (L,) Hz; per centre and level (c, L): ``chi2``, ``dof``, ``p``, ``S2``, ``S2_err``,
     ``S2_spread`` (mm^4/s^2), ``level_cpu_s`` (summed ``cpu_s``); per centre (c,): ``H``,
     ``H_err``, ``H_levels``."""
@@ -79,12 +79,14 @@ def grid_points(settings: dict) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     return f, c.astype(int), lv.astype(int)
 
 
-def cost(settings: dict) -> float:
-    """Upper estimate of the CPU time (s) of the scan of every grid point of ``settings``."""
-    from bbdyn.scans.frequency import cpu_estimate
+def cost(settings: dict) -> dict[str, float]:
+    """Forecast of the CPU time (s) of the scan of every grid point of ``settings``:
+    ``bbdyn.scans.frequency.scan_cpu_forecast``."""
+    from bbdyn.scans.frequency import scan_cpu_forecast
 
     values = np.unique(grid_points(settings)[0])
-    return cpu_estimate(values.sum(), settings["n"], settings["t"])
+    return scan_cpu_forecast(values.sum(), values.size, settings["n"], settings["t"],
+                             workers=settings.get("workers"))  # fmt: skip
 
 
 def run_points(settings: dict, seed: int, out_dir=None, progress=False):
@@ -116,16 +118,16 @@ def compute(
     scan = run_points(settings, seed, out_dir, progress)
     f, cidx, lidx = grid_points(settings)
     pos = np.searchsorted(scan.values, f)
-    wall = np.array([p["wall_s"] for p in scan.meta["points"]])
+    cpu = scan.point_cpu_s()
     arrays = {"f": f, "centre": cidx, "level": lidx, "D": scan["D"][pos],
-              "D_err": scan["D_err"][pos], "cpu_s": wall[pos]}  # fmt: skip
+              "D_err": scan["D_se"][pos], "cpu_s": cpu[pos]}  # fmt: skip
     centres = np.asarray(settings["centres"], dtype=float)
     steps = np.asarray(settings["steps"], dtype=float)
     arrays.update(centres=centres, steps=steps)
     arrays.update(_level_tables(arrays, centres.size, steps.size))
     meta = make_meta(seed=seed, wall_s=time.perf_counter() - start,
                      scan_compute=scan.meta["compute"], n=int(settings["n"]),
-                     t=float(settings["t"]), scan_cpu_s=float(wall.sum()))  # fmt: skip
+                     t=float(settings["t"]), scan_cpu_s=float(cpu.sum()))  # fmt: skip
     meta["params"] = {k: v for k, v in Params(f=85.2).to_dict().items() if k != "f"}
     result = FineStructureResult(arrays, meta)
     result.meta["key_numbers"] = key_numbers(result)
@@ -215,8 +217,8 @@ def _steps_text(rows: list[dict]) -> str:
 def precision_cost(result: Result) -> float:
     """Median over points of ``D_err^2 x seconds``: constant while D_err ~ n^-1/2 and the
     time ~ n (scene B3), so a point with error ``D_err`` costs about this / D_err^2 seconds.
-    Times are the scan's wall times per point (one process, one numba thread each): on
-    shared cores they exceed the CPU time."""
+    Times are the CPU times of the points' worker processes (one numba thread each); a
+    result computed before CPU time was recorded holds wall times, which exceed them."""
     return float(np.median(result["D_err"] ** 2 * result["cpu_s"]))
 
 

@@ -14,6 +14,7 @@ import numpy as np
 from bbdyn.params import Params
 from bbdyn.results import Result, make_meta
 from bbdyn.scans.cache import diffusion_scan
+from bbdyn.schema import standard_key
 from bbdyn.tongues import tongue_intervals
 
 __all__ = ["D_ZERO", "FULL", "QUICK", "SCENE_KEYS", "FrequencyScanScene", "scan_scene"]
@@ -62,9 +63,10 @@ class FrequencyScanScene(Result):
     def from_scan(cls, scan, params: Params, **meta) -> FrequencyScanScene:
         """Keep the scenes' outputs of ``scan`` and add the tongue intervals."""
         f = scan.values
-        arrays = {"f": f} | {k: scan[k] for k in SCENE_KEYS}
+        # the scene keeps its array names; the scan's are the schema's (X_se for X_err)
+        arrays = {"f": f} | {k: scan[standard_key(k)] for k in SCENE_KEYS}
         arrays["tongues"] = tongue_intervals(params, float(f.min()), float(f.max()))
-        cpu = float(sum(p["wall_s"] for p in scan.meta["points"]))
+        cpu = float(scan.point_cpu_s().sum())
         return cls(
             arrays,
             make_meta(

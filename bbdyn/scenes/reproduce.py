@@ -74,8 +74,10 @@ def _check_ids(only: Iterable[str] | None, known: Iterable[str]) -> list[str]:
 
 def cost_lines(ids: Iterable[str], setting: str, root: str | Path = SOURCE_ROOT) -> list[str]:
     """What running scenes ``ids`` at ``setting`` will cost, one line per scene that has a
-    ``cost(settings)`` (the scans): the event model's upper bound of the CPU time, and the
-    wall time of the same scene at the same settings in ``<root>/docs/figures``, if any."""
+    ``cost(settings)`` (the scans): the forecast CPU time of its scan with compiled kernels
+    and what compiling them adds when numba's cache lacks them
+    (``bbdyn.scans.frequency.scan_cpu_forecast``), and the wall time of the same scene at
+    the same settings in ``<root>/docs/figures``, if any."""
     from bbdyn.scans.progress import rough_duration
 
     figures = Path(root) / "docs" / "figures"
@@ -90,7 +92,11 @@ def cost_lines(ids: Iterable[str], setting: str, root: str | Path = SOURCE_ROOT)
         if not hasattr(module, "cost"):
             continue
         settings = scene_settings(scene_id, setting)
-        line = f"{scene_id}: at most {rough_duration(module.cost(settings))} of CPU time"
+        cost = module.cost(settings)
+        line = (f"{scene_id}: its scan takes about {rough_duration(cost['cpu_s'])} of CPU time "
+                f"with compiled kernels, and about {rough_duration(cost['compile_cpu_s'])} more "
+                "to compile them if numba's cache lacks them (the first run after installing "
+                "or changing bbdyn)")  # fmt: skip
         same = measured.get((scene_id, json.dumps(settings, sort_keys=True)))
         if same is not None:
             line += (f"; measured {rough_duration(same['run_s'])} wall for "

@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from bbdyn.scans.cache import grid_cpu_estimate
+from bbdyn.scans.cache import grid_cpu_forecast
 from bbdyn.scenes import figure_axes
 from bbdyn.scenes.frequency_scene import FULL, QUICK, FrequencyScanScene, scan_scene
 
@@ -26,9 +26,10 @@ def compute(settings: dict, seed: int = 0, out_dir=None, progress=False) -> Freq
     return scene
 
 
-def cost(settings: dict) -> float:
-    """Upper estimate of the CPU time (s) of the scan of ``settings`` (shared with S4, S5)."""
-    return grid_cpu_estimate(settings)
+def cost(settings: dict) -> dict[str, float]:
+    """Forecast of the CPU time (s) of the scan of ``settings`` (shared with S4, S5):
+    ``bbdyn.scans.frequency.scan_cpu_forecast``."""
+    return grid_cpu_forecast(settings)
 
 
 def key_numbers(scene: FrequencyScanScene) -> dict:

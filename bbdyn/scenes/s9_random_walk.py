@@ -42,19 +42,22 @@ class SceneS9Result(Result):
 def scan_points(settings: dict, seed: int, out_dir, *, keys, progress=False):
     """The ``keys`` outputs of ``gk_scene_scan`` (computed or resumed), sorted by f."""
     from bbdyn.scans.cache import gk_scene_scan
+    from bbdyn.schema import standard_key
 
     scan = gk_scene_scan(settings, seed, out_dir, progress)
     order = np.argsort(scan.values)
     arrays = {"f": scan.values[order]}
-    arrays.update({k: scan[k][order] for k in keys})
+    # the scene keeps its array names; the scan's are the schema's (X_se for X_err)
+    arrays.update({k: scan[standard_key(k)][order] for k in keys})
     return arrays, scan.meta
 
 
-def cost(settings: dict) -> float:
-    """Upper estimate of the CPU time (s) of the scan of ``settings`` (shared with S10)."""
-    from bbdyn.scans.cache import grid_cpu_estimate
+def cost(settings: dict) -> dict[str, float]:
+    """Forecast of the CPU time (s) of the scan of ``settings`` (shared with S10):
+    ``bbdyn.scans.frequency.scan_cpu_forecast``."""
+    from bbdyn.scans.cache import grid_cpu_forecast
 
-    return grid_cpu_estimate(settings)
+    return grid_cpu_forecast(settings)
 
 
 def compute(settings: dict, seed: int = 0, out_dir=None, progress=False) -> SceneS9Result:
