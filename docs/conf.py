@@ -13,6 +13,7 @@ autosummary writes one page per module into ``api/generated/`` (not committed).
 from __future__ import annotations
 
 import os
+import shutil
 import sys
 from pathlib import Path
 
@@ -62,6 +63,9 @@ nb_execution_show_tb = True
 
 # --- API reference -----------------------------------------------------------------------------
 autosummary_generate = True  # one page per module: its docstring, then every public member
+# autosummary writes api/generated anew but never deletes a page: start from an empty folder,
+# so a module that was renamed or removed leaves no stale page behind (a build error)
+shutil.rmtree(DOCS / "api" / "generated", ignore_errors=True)
 autodoc_default_options = {"members": True, "member-order": "bysource"}
 autodoc_typehints = "none"  # the numpydoc docstrings state types and units
 numpydoc_show_class_members = False
