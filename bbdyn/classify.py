@@ -26,21 +26,19 @@ import numpy as np
 
 from bbdyn.core.status import FAILURES
 from bbdyn.diffusion import einstein_D, einstein_D_windows, per_particle_slopes
-from bbdyn.ensemble import (
-    Box,
+from bbdyn.ensemble import Box, initial_conditions, kernel_states, reference_box
+from bbdyn.params import Params, check_params
+from bbdyn.results import Result, make_meta
+from bbdyn.runs import (
     allocate,
     check_n,
     check_run,
     failed_particles,
-    initial_conditions,
-    kernel_states,
+    new_carry,
     numba_threads,
     periods_phase,
-    reference_box,
     run_chunked,
 )
-from bbdyn.params import Params, check_params
-from bbdyn.results import Result, make_meta
 
 __all__ = [
     "Thresholds",
@@ -265,9 +263,9 @@ def trajectory_features(
     on_failure : {"keep", "raise"}
         Trajectories the kernel fails on: kept out of every attractor (label -2 in
         ``classify_features``, counted in ``meta["n_failed"]``, with a warning), or raise
-        ``SimulationError`` (``bbdyn.ensemble.failed_particles``).
+        ``SimulationError`` (``bbdyn.runs.failed_particles``).
     progress : callable, optional
-        Told the fraction of the simulated time done (``bbdyn.ensemble.run_chunked``).
+        Told the fraction of the simulated time done (``bbdyn.runs.run_chunked``).
 
     Returns
     -------
@@ -295,7 +293,6 @@ def trajectory_features(
     # ---- the features run: size checked before the initial conditions are drawn, chunked
     # (Ctrl-C stops it between chunks)
     from bbdyn.core.ensemble import CARRY_WIDTH, CNT_WIDTH
-    from bbdyn.ensemble import new_carry
 
     nbins = int(round(10.0 / th.hist_width)) + 1
     shapes = {

@@ -22,6 +22,7 @@ LAYERS = {
         "bbdyn.params",
         "bbdyn.results",
         "bbdyn.sources",
+        "bbdyn.runs",
         "bbdyn.billiard",
         "bbdyn.ensemble",
         "bbdyn.diffusion",

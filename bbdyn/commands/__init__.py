@@ -61,9 +61,9 @@ def integer_in(name: str, low: int, high: int | None = None, why="") -> Callable
 
 
 def particles(text: str) -> int:
-    """``--n``, the number of particles: the ensemble API's rule (``bbdyn.ensemble.N_MIN``),
+    """``--n``, the number of particles: the ensemble API's rule (``bbdyn.runs.N_MIN``),
     the same for every command."""
-    from bbdyn.ensemble import N_MIN
+    from bbdyn.runs import N_MIN
 
     why = "D, the energies and the stuck fraction carry standard errors over particles"
     return integer_in("n", N_MIN, None, why)(text)

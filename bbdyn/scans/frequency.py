@@ -122,7 +122,7 @@ def frequency_grid(f_start: float, f_stop: float, f_step: float) -> np.ndarray:
 
 def _check_point_arguments(params: Params, n, t, transient, n_samples) -> int:
     """Validate the arguments of ``diffusion_point`` at ``params``; returns ``n`` as an int."""
-    from bbdyn.ensemble import check_n, check_run
+    from bbdyn.runs import check_n, check_run
 
     n = check_n(n)
     if int(n_samples) != n_samples or n_samples < 11:
@@ -133,10 +133,10 @@ def _check_point_arguments(params: Params, n, t, transient, n_samples) -> int:
 
 def cpu_estimate(f_sum: float, n: int, t: float) -> float:
     """CPU time (s) of ``n`` particles for ``t`` s at frequencies summing to ``f_sum`` (Hz),
-    from the ensemble's conservative event model (``bbdyn.ensemble.EVENTS_PER_PERIOD``
+    from the ensemble's conservative event model (``bbdyn.runs.EVENTS_PER_PERIOD``
     events per period at ``EVENT_COST_S`` each): an upper bound for refusing oversized
     scans, tens of times the CPU time of typical scans (``scan_cpu_forecast`` forecasts it)."""
-    from bbdyn.ensemble import EVENT_COST_S, EVENTS_PER_PERIOD
+    from bbdyn.runs import EVENT_COST_S, EVENTS_PER_PERIOD
 
     return float(f_sum) * float(n) * float(t) * EVENTS_PER_PERIOD * EVENT_COST_S
 
@@ -203,12 +203,12 @@ def check_scan_size(
     ``[f_lo, f_hi]`` (Hz), estimate its CPU time and disk, and refuse it beyond the limits,
     before anything is allocated or written.
 
-    CPU time follows the ensemble's conservative event model (``bbdyn.ensemble.check_size``;
+    CPU time follows the ensemble's conservative event model (``bbdyn.runs.check_size``;
     real runs are faster), disk ``point_bytes``.  Limits: ``MAX_POINTS`` frequencies, and
     every point within ``check_size``'s limits (checked at ``f_hi``, the costliest).
     Returns ``{"cpu_s", "bytes"}``; raises ValueError with the estimate and what to do.
     """
-    from bbdyn.ensemble import check_size
+    from bbdyn.runs import check_size
 
     for f in (f_lo, f_hi):
         n = _check_point_arguments(Params(f=f), n, t, transient, n_samples)

@@ -230,7 +230,7 @@ def gk_scan(
     anything is written.  Returns the ``ScanResult``: ``f`` and every output
     of ``gk_numbers`` stacked over frequencies (``D_n`` has shape (n_f, nmax + 1)).
     """
-    from bbdyn.ensemble import check_n, check_run
+    from bbdyn.runs import check_n, check_run
     from bbdyn.scans.runner import run_scan
 
     freqs = [float(f) for f in frequencies]
