@@ -38,7 +38,7 @@ LAYERS = {
     "reference": ("bbdyn.reference",),
     "scans": ("bbdyn.scans",),
     "scenes": ("bbdyn.scenes",),
-    "cli": ("bbdyn.cli", "bbdyn.commands", "bbdyn.__main__"),
+    "cli": ("bbdyn.commands", "bbdyn.__main__"),
 }
 #: Which layers each layer may import (its own included).
 ALLOWED = {

@@ -20,7 +20,7 @@ from bbdyn.classify import (
     classify_features,
     trajectory_features,
 )
-from bbdyn.cli import main
+from bbdyn.commands.cli import main
 from bbdyn.core import features as core
 from bbdyn.results import make_meta
 from bbdyn.tongues import k1_orbit, params_at_gamma, tongue_gamma_hi, tongue_gamma_lo

@@ -165,7 +165,7 @@ def test_stored_cascades_are_what_the_cascade_computes():
 
 def _cli(argv):
     """Exit status of ``bbdyn argv`` (SystemExit caught)."""
-    from bbdyn.cli import main
+    from bbdyn.commands.cli import main
 
     try:
         return main(argv)

@@ -288,7 +288,7 @@ def test_transient_zero_averages_from_the_start(tmp_path):
     ],  # fmt: skip
 )
 def test_refused_scan_writes_nothing(tmp_path, capsys, option, value, match):
-    from bbdyn.cli import main
+    from bbdyn.commands.cli import main
 
     out = tmp_path / "scan"
     args = ["scan", "--f-start", "60", "--f-stop", "61", "--n", "4", "--t", "1", "--out", str(out)]

@@ -265,7 +265,7 @@ def test_lyapunov_command_warns_when_the_windows_drift(capsys):
     ``windows_agree: false`` in the JSON; at 85.2 Hz they agree, no warning."""
     import json
 
-    from bbdyn.cli import main
+    from bbdyn.commands.cli import main
 
     for f, agree in (("55", False), ("85.2", True)):
         assert main(["lyapunov", "--f", f, "--json"]) == 0

@@ -251,7 +251,7 @@ def test_tongue_table_frequencies_match_model_md():
 def test_cli_tongues_json_matches_closed_form_and_numeric_edges(capsys):
     import json
 
-    from bbdyn.cli import main
+    from bbdyn.commands.cli import main
 
     assert main(["tongues", "--alpha", "0.5", "--kmax", "3", "--json"]) == 0
     rows = json.loads(capsys.readouterr().out)["tongues"]

@@ -1,4 +1,5 @@
-"""Subcommands of the ``bbdyn`` CLI, one module each (see ``bbdyn.cli``), and what they share.
+"""Subcommands of the ``bbdyn`` CLI, one module each (entry point ``bbdyn.commands.cli``),
+and what they share.
 
 Argument types refuse a bad value while the command line is parsed, so the message
 names the option (``argument --n: n must be an integer >= 2 ...``) and nothing has

@@ -151,7 +151,7 @@ def run(args) -> int:
     import warnings
     from pathlib import Path
 
-    from bbdyn.cli import Interrupted
+    from bbdyn.commands.cli import Interrupted
     from bbdyn.scans.frequency import check_scan_size, frequency_grid, frequency_scan, grid_size
     from bbdyn.scans.runner import (
         MANIFEST,
