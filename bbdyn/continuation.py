@@ -51,6 +51,7 @@ from bbdyn.core.status import IMPACT, NON_FINITE, OK, STATUS_MESSAGES
 from bbdyn.core.tolerances import ORBIT_NEWTON_TOL
 from bbdyn.params import Params
 from bbdyn.results import Result, make_meta
+from bbdyn.tongues import k1_cos_phase, tongue_gamma_hi, tongue_gamma_lo
 
 __all__ = [
     "Bifurcation",
@@ -513,8 +514,6 @@ def feigenbaum_ratios(gammas) -> np.ndarray:
 
 def k1_start(k: int, alpha: float) -> Point:
     """A corrected point of the stable k/1 branch halfway up its tongue (closed-form guess)."""
-    from bbdyn.tongues import k1_cos_phase, tongue_gamma_hi, tongue_gamma_lo
-
     gamma = 0.5 * (tongue_gamma_lo(k, alpha) + tongue_gamma_hi(k, alpha))
     theta = TWO_PI - math.acos(k1_cos_phase(k, gamma, alpha))
     return _correct_at_gamma(theta, 2 * alpha * math.pi * k / (1 + alpha), gamma, k, 1, alpha)
@@ -696,8 +695,6 @@ def bifurcation_diagram(gammas, alpha: float, transient: int, record: int) -> np
     -------
     array, shape (len(gammas), record)
     """
-    from bbdyn.tongues import k1_cos_phase, tongue_gamma_hi, tongue_gamma_lo
-
     gammas = np.asarray(gammas, dtype=float)
     g0 = min(max(gammas[0], tongue_gamma_lo(1, alpha)), tongue_gamma_hi(1, alpha))
     theta = TWO_PI - np.arccos(k1_cos_phase(1, g0, alpha))

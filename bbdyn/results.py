@@ -28,6 +28,10 @@ from typing import IO, Any, ClassVar
 
 import numpy as np
 
+from bbdyn import __version__
+from bbdyn.schema import units_of
+from bbdyn.sources import package_digest
+
 __all__ = [
     "KINDS",
     "DamagedResultError",
@@ -84,10 +88,6 @@ def make_meta(params=None, seed=None, wall_s=None, cpu_s=None, **extra: Any) -> 
     (``bbdyn.sources.package_digest``), run time (``wall_s`` wall-clock, ``cpu_s`` CPU time
     of the process, seconds), machine, and ``units``: the unit of each key that has one
     (``bbdyn.schema``)."""
-    from bbdyn import __version__
-    from bbdyn.schema import units_of
-    from bbdyn.sources import package_digest
-
     meta: dict[str, Any] = {
         "bbdyn_version": __version__,
         "bbdyn_source": package_digest(),

@@ -14,7 +14,7 @@ import sys
 import pytest
 from test_cli_bad_inputs import run_main
 
-from bbdyn.commands import cli, tongues
+from bbdyn.commands import bench, cli, tongues
 from bbdyn.core.status import SimulationError
 
 SIM = ["simulate", "--f", "85.2", "--n", "4", "--t", "1"]
@@ -64,9 +64,7 @@ def test_save_onto_a_folder_is_refused(tmp_path, capsys):
 def test_an_unwritable_folder_is_refused_before_the_run(monkeypatch, capsys):
     """/proc exists and its permission bits let root write, but no file can be made there:
     refused while the command line is parsed, before the benchmark runs."""
-    import bbdyn.scenes
-
-    monkeypatch.setattr(bbdyn.scenes, "run_scene", lambda *a, **k: pytest.fail("it ran"))
+    monkeypatch.setattr(bench, "run_scene", lambda *a, **k: pytest.fail("it ran"))
     assert run_main(["bench", "flat", "--quick", "--out", "/proc/bbdyn_b.png"]) == 2
     assert "folder /proc is not writable" in short_message(capsys.readouterr().err)[0]
 
