@@ -55,11 +55,11 @@ KINDS = {
     "billiard_trajectory": "bbdyn.billiard",
     "trajectory_features": "bbdyn.classify",
     "classification": "bbdyn.classify",
-    "flat_orbit_branch": "bbdyn.continuation",
-    "flat_doubling_cascades": "bbdyn.continuation",
+    "flat_orbit_branch": "bbdyn.flat.continuation",
+    "flat_doubling_cascades": "bbdyn.flat.continuation",
     "ensemble": "bbdyn.ensemble",
-    "flat_trajectory": "bbdyn.flatball",
-    "flat_ensemble": "bbdyn.flatball",
+    "flat_trajectory": "bbdyn.flat.flatball",
+    "flat_ensemble": "bbdyn.flat.flatball",
     "flat_lyapunov": "bbdyn.lyapunov",
     "billiard_lyapunov": "bbdyn.lyapunov",
     "poincare": "bbdyn.poincare",
@@ -78,8 +78,8 @@ KINDS = {
     "scene_s1": "bbdyn.scenes.s1_tongues",
     "scene_s2": "bbdyn.scenes.s2_geometry",
     "scene_s9": "bbdyn.scenes.s9_random_walk",
-    "flat_periodic_orbit": "bbdyn.tongues",
-    "flat_tongues": "bbdyn.tongues",
+    "flat_periodic_orbit": "bbdyn.flat.tongues",
+    "flat_tongues": "bbdyn.flat.tongues",
 }
 
 

@@ -28,10 +28,7 @@ LAYERS = {
         "bbdyn.diffusion",
         "bbdyn.classify",
         "bbdyn.poincare",
-        "bbdyn.flatball",
-        "bbdyn.tongues",
-        "bbdyn.highbounce",
-        "bbdyn.continuation",
+        "bbdyn.flat",  # the flat ball
         "bbdyn.lyapunov",
         "bbdyn.approx",
     ),

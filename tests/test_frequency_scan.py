@@ -26,13 +26,13 @@ from bbdyn.diffusion import (
     window_consistency,
 )
 from bbdyn.ensemble import ensemble
+from bbdyn.flat.tongues import tongue_intervals
 from bbdyn.scans.frequency import (
     diffusion_point,
     frequency_grid,
     frequency_scan,
 )
 from bbdyn.scans.runner import load_scan
-from bbdyn.tongues import tongue_intervals
 
 D_TRUE = 2.5  # mm^2/s
 TINY = {"n": 6, "t": 1.0}

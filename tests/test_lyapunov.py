@@ -15,15 +15,15 @@ from bbdyn.core.flat import FlatArrays, FlatState, flat_run
 from bbdyn.core.plate import TWO_PI
 from bbdyn.core.status import IMPACT, OK, STICK, STUCK_FOREVER
 from bbdyn.core.tangent import TangentWindows, flat_tangent_run
-from bbdyn.lyapunov import flat_lyapunov, flat_lyapunov_from
-from bbdyn.params import Params
-from bbdyn.tongues import (
+from bbdyn.flat.tongues import (
     find_periodic_orbit,
     k1_orbit,
     k1_orbit_numeric,
     params_at_gamma,
     tongue_gamma_hi,
 )
+from bbdyn.lyapunov import flat_lyapunov, flat_lyapunov_from
+from bbdyn.params import Params
 
 ALPHA = 0.5
 #: a chaotic flat ball (positive exponent, rare sticks) for the trajectory checks

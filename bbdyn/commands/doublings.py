@@ -15,7 +15,7 @@ from bbdyn.commands import (
     model_values,
     print_json,
 )
-from bbdyn.continuation import FEIGENBAUM_DELTA, doubling_cascade
+from bbdyn.flat.continuation import FEIGENBAUM_DELTA, doubling_cascade
 
 HELP = (
     "period-doubling cascades of the k/1 orbits of the flat ball: Gamma of each doubling "

@@ -17,7 +17,7 @@ from bbdyn.commands import (
     model_values,
     print_json,
 )
-from bbdyn.tongues import OrbitNotFound, tongue_table
+from bbdyn.flat.tongues import OrbitNotFound, tongue_table
 
 HELP = "k/1 Arnold tongue edges of the flat ball: closed form and from the exact map's multipliers"
 

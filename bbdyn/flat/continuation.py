@@ -49,9 +49,9 @@ from bbdyn.core.flat_jacobian import flat_map_jacobian
 from bbdyn.core.plate import TWO_PI, sin_minus_x
 from bbdyn.core.status import IMPACT, NON_FINITE, OK, STATUS_MESSAGES
 from bbdyn.core.tolerances import ORBIT_NEWTON_TOL
+from bbdyn.flat.tongues import k1_cos_phase, tongue_gamma_hi, tongue_gamma_lo
 from bbdyn.params import Params
 from bbdyn.results import Result, make_meta
-from bbdyn.tongues import k1_cos_phase, tongue_gamma_hi, tongue_gamma_lo
 
 __all__ = [
     "Bifurcation",
@@ -168,7 +168,7 @@ def orbit_chain(theta: float, V: float, gamma: float, k: int, m: int, alpha: flo
 
 
 def _scale(k: int, V: float) -> np.ndarray:
-    """Residual scales: 2 pi k (phase) and the launch speed V + 2 pi k (as bbdyn.tongues)."""
+    """Residual scales: 2 pi k (phase) and the launch speed V + 2 pi k (as bbdyn.flat.tongues)."""
     return np.array([TWO_PI * k, abs(V) + TWO_PI * k])
 
 
