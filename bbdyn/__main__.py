@@ -1,8 +1,8 @@
-"""``python -m bbdyn``: the ``bbdyn`` command line (``bbdyn.cli.main``)."""
+"""``python -m bbdyn``: the ``bbdyn`` command line (``bbdyn.commands.cli.main``)."""
 
 import sys
 
-from bbdyn.cli import main
+from bbdyn.commands.cli import main
 
 if __name__ == "__main__":
     sys.exit(main())

@@ -27,6 +27,7 @@ from bbdyn.core.floor import arc_coordinates, xi_from_arc_length
 from bbdyn.core.status import IMPACT, RELEASE, STATUS_MESSAGES, STICK, raise_for_status
 from bbdyn.params import Params, check_params
 from bbdyn.results import Result, make_meta
+from bbdyn.runs import MAX_BYTES, MAX_PERIODS
 
 __all__ = [
     "BilliardTrajectory",
@@ -152,7 +153,7 @@ def simulate(
         converted by ``state_from_section``.
     max_bytes : float, optional
         Refuse (ValueError, before allocating) runs whose arrays would take more bytes;
-        default ``bbdyn.ensemble.MAX_BYTES``.  Raise it if you mean it.
+        default ``bbdyn.runs.MAX_BYTES``.  Raise it if you mean it.
 
     Returns
     -------
@@ -209,8 +210,6 @@ BYTES_PER_STATE = 8 * (7 + 5 + 2)
 
 def _check_bytes(n_states: int, max_bytes: float | None) -> None:
     """Refuse a trajectory of ``n_states`` states above ``max_bytes`` (default ``MAX_BYTES``)."""
-    from bbdyn.ensemble import MAX_BYTES
-
     max_bytes = MAX_BYTES if max_bytes is None else float(max_bytes)
     nbytes = n_states * BYTES_PER_STATE
     if nbytes > max_bytes:
@@ -248,8 +247,6 @@ def _check_offset(name: str, value: float) -> None:
     """Refuse a whole-number offset (``periods``, ``tile``) that is not an integer, or one
     of magnitude >= ``MAX_PERIODS`` = 2^52, beyond which the kernel's sums of the offset
     and a fraction (a phase, a position in the tile) are no longer exact."""
-    from bbdyn.ensemble import MAX_PERIODS
-
     if not abs(value) < MAX_PERIODS:
         raise ValueError(
             f"{name} must be an integer of magnitude < 2^52 = {MAX_PERIODS:.0f} (times and "

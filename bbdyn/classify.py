@@ -24,23 +24,24 @@ from dataclasses import asdict, dataclass
 
 import numpy as np
 
+from bbdyn.core import features as core
+from bbdyn.core.ensemble import CARRY_WIDTH, CNT_WIDTH, RunTimes, run_features
+from bbdyn.core.features import FeatureThresholds
 from bbdyn.core.status import FAILURES
 from bbdyn.diffusion import einstein_D, einstein_D_windows, per_particle_slopes
-from bbdyn.ensemble import (
-    Box,
+from bbdyn.ensemble import Box, initial_conditions, kernel_states, reference_box
+from bbdyn.params import Params, check_params
+from bbdyn.results import Result, make_meta
+from bbdyn.runs import (
     allocate,
     check_n,
     check_run,
     failed_particles,
-    initial_conditions,
-    kernel_states,
+    new_carry,
     numba_threads,
     periods_phase,
-    reference_box,
     run_chunked,
 )
-from bbdyn.params import Params, check_params
-from bbdyn.results import Result, make_meta
 
 __all__ = [
     "Thresholds",
@@ -176,8 +177,6 @@ class Thresholds:
     def kernel(self):
         """The measurement thresholds as the features kernel takes them
         (``core.features.FeatureThresholds``)."""
-        from bbdyn.core.features import FeatureThresholds
-
         return FeatureThresholds(self.tiny, self.k_tol, int(self.kmax), self.hist_width,
                                  self.hop_floor)  # fmt: skip
 
@@ -265,17 +264,14 @@ def trajectory_features(
     on_failure : {"keep", "raise"}
         Trajectories the kernel fails on: kept out of every attractor (label -2 in
         ``classify_features``, counted in ``meta["n_failed"]``, with a warning), or raise
-        ``SimulationError`` (``bbdyn.ensemble.failed_particles``).
+        ``SimulationError`` (``bbdyn.runs.failed_particles``).
     progress : callable, optional
-        Told the fraction of the simulated time done (``bbdyn.ensemble.run_chunked``).
+        Told the fraction of the simulated time done (``bbdyn.runs.run_chunked``).
 
     Returns
     -------
     FeatureResult
     """
-
-    from bbdyn.core import features as core
-    from bbdyn.core.ensemble import RunTimes, run_features
 
     check_params(params)
     th = Thresholds() if thresholds is None else thresholds
@@ -294,8 +290,6 @@ def trajectory_features(
     given, boxes, n, m = _initial_sources(params, boxes, n, initial)
     # ---- the features run: size checked before the initial conditions are drawn, chunked
     # (Ctrl-C stops it between chunks)
-    from bbdyn.core.ensemble import CARRY_WIDTH, CNT_WIDTH
-    from bbdyn.ensemble import new_carry
 
     nbins = int(round(10.0 / th.hist_width)) + 1
     shapes = {
@@ -368,8 +362,6 @@ class FeatureResult(Result):
         ``E_kin = E_x + E_y`` and ``E = E_kin + E_pot``; the blocks have equal length, so
         their mean over the blocks is the time average over the window.
         """
-        from bbdyn.core import features as core
-
         b = self["blocks"]
         block_s = self.meta["block_periods"] / self.params.f
         cols = (("E_x", core.BF_EX), ("E_y", core.BF_EY), ("E_pot", core.BF_POT))
@@ -386,8 +378,6 @@ class FeatureResult(Result):
         of the time; ``tiny_fraction`` and ``locked_fraction`` of the collisions (0 when
         there is none).
         """
-        from bbdyn.core import features as core
-
         p = self.params
         b = self["blocks"]
         L = self.meta["block_periods"]
@@ -411,8 +401,6 @@ class FeatureResult(Result):
 
     def per_particle(self) -> dict[str, np.ndarray]:
         """Time averages over the window and their standard errors (``name + "_se"``)."""
-        from bbdyn.core import features as core
-
         nb = self["blocks"].shape[1]
         out = {}
         for name, v in self.block_values().items():
@@ -447,8 +435,6 @@ class FeatureResult(Result):
 
     def periods(self, period_tol: float) -> np.ndarray:
         """Smallest p <= pmax with mismatch <= period_tol and >= 4 p collisions; 0 if none."""
-        from bbdyn.core import features as core
-
         coll = self["blocks"][..., core.BF_COLL].sum(axis=1)
         lags = np.arange(1, self["mismatch"].shape[1] + 1)
         ok = (self["mismatch"] <= period_tol) & (coll[:, None] >= 4 * lags[None, :])

@@ -21,6 +21,8 @@ import math
 
 import numpy as np
 
+from bbdyn.core.tolerances import DOT_ROUND_PER_TERM
+
 __all__ = [
     "einstein_D",
     "einstein_D_bootstrap",
@@ -137,8 +139,6 @@ def per_particle_slopes(times, displacements, window=(0.5, 1.0)):
 
 def _slopes_and_rounding(times, displacements, window):
     """Per-particle slopes and a bound on their rounding errors (DOT_ROUND_PER_TERM)."""
-    from bbdyn.core.tolerances import DOT_ROUND_PER_TERM
-
     times, disp = _check(times, displacements)
     start, end = (float(v) for v in window)
     if not 0.0 <= start < end <= 1.0:

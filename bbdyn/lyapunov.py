@@ -22,9 +22,12 @@ import time
 
 import numpy as np
 
+from bbdyn.classify import classify
+from bbdyn.core.billiard_tangent import billiard_tangent_run
 from bbdyn.core.plate import TWO_PI
 from bbdyn.core.status import IMPACT, OK, STATUS_MESSAGES, STUCK_FOREVER
 from bbdyn.core.tangent import TangentWindows, flat_tangent_run
+from bbdyn.ensemble import initial_conditions, kernel_states
 from bbdyn.params import Params
 from bbdyn.results import Result, make_meta
 
@@ -462,8 +465,6 @@ def billiard_lyapunov_from(
         particle if a kernel fails.  The tangent vector starts as ``(1, 1, 1, 1) / 2`` in
         the section coordinates ``(theta, x, vx, vyrel)`` (rad, mm, mm/s, mm/s).
     """
-    from bbdyn.core.billiard_tangent import billiard_tangent_run
-
     t = _check_positive("t", t, "s")
     transient = float(transient)
     if not (math.isfinite(transient) and transient >= 0):
@@ -540,15 +541,11 @@ def billiard_lyapunov(
     >>> res["log_growth"].shape
     (2, 4)
     """
-    from bbdyn.ensemble import initial_conditions, kernel_states
-
     n = _check_count("n", n)
     _check_windows(params, _check_positive("t", t, "s"), _check_count("windows", windows))
     start = time.perf_counter()
     labels = np.full(n, NOT_CLASSIFIED)
     if classify_attractors:
-        from bbdyn.classify import classify
-
         t_c = float(transient) + float(t) if t_classify is None else t_classify
         cls = classify(params, t=t_c, n=n, seed=seed)
         ics, labels = np.asarray(cls["initial"], float), np.asarray(cls["labels"])

@@ -38,6 +38,7 @@ import numpy as np
 from bbdyn.billiard import BilliardTrajectory, simulate
 from bbdyn.core.floor import arc_coordinates
 from bbdyn.core.status import IMPACT, STICK
+from bbdyn.ensemble import ensemble
 from bbdyn.params import Params, check_params
 from bbdyn.results import Result, make_meta
 
@@ -167,8 +168,6 @@ def poincare(
     >>> sorted(set(res["particle"].tolist()))
     [0, 1]
     """
-    from bbdyn.ensemble import ensemble
-
     check_params(params)
     if isinstance(particles, bool) or int(particles) != particles or not 1 <= particles <= n:
         raise ValueError(f"particles must be an integer in [1, n = {n}], got {particles!r}")

@@ -28,6 +28,10 @@ from typing import IO, Any, ClassVar
 
 import numpy as np
 
+from bbdyn import __version__
+from bbdyn.schema import units_of
+from bbdyn.sources import package_digest
+
 __all__ = [
     "KINDS",
     "DamagedResultError",
@@ -51,11 +55,11 @@ KINDS = {
     "billiard_trajectory": "bbdyn.billiard",
     "trajectory_features": "bbdyn.classify",
     "classification": "bbdyn.classify",
-    "flat_orbit_branch": "bbdyn.continuation",
-    "flat_doubling_cascades": "bbdyn.continuation",
+    "flat_orbit_branch": "bbdyn.flat.continuation",
+    "flat_doubling_cascades": "bbdyn.flat.continuation",
     "ensemble": "bbdyn.ensemble",
-    "flat_trajectory": "bbdyn.flatball",
-    "flat_ensemble": "bbdyn.flatball",
+    "flat_trajectory": "bbdyn.flat.flatball",
+    "flat_ensemble": "bbdyn.flat.flatball",
     "flat_lyapunov": "bbdyn.lyapunov",
     "billiard_lyapunov": "bbdyn.lyapunov",
     "poincare": "bbdyn.poincare",
@@ -74,8 +78,8 @@ KINDS = {
     "scene_s1": "bbdyn.scenes.s1_tongues",
     "scene_s2": "bbdyn.scenes.s2_geometry",
     "scene_s9": "bbdyn.scenes.s9_random_walk",
-    "flat_periodic_orbit": "bbdyn.tongues",
-    "flat_tongues": "bbdyn.tongues",
+    "flat_periodic_orbit": "bbdyn.flat.tongues",
+    "flat_tongues": "bbdyn.flat.tongues",
 }
 
 
@@ -84,10 +88,6 @@ def make_meta(params=None, seed=None, wall_s=None, cpu_s=None, **extra: Any) -> 
     (``bbdyn.sources.package_digest``), run time (``wall_s`` wall-clock, ``cpu_s`` CPU time
     of the process, seconds), machine, and ``units``: the unit of each key that has one
     (``bbdyn.schema``)."""
-    from bbdyn import __version__
-    from bbdyn.schema import units_of
-    from bbdyn.sources import package_digest
-
     meta: dict[str, Any] = {
         "bbdyn_version": __version__,
         "bbdyn_source": package_digest(),

@@ -28,6 +28,8 @@ from __future__ import annotations
 import math
 from typing import Any
 
+from bbdyn import __version__
+
 __all__ = [
     "ALIASES",
     "DIMENSIONS",
@@ -289,8 +291,6 @@ def document(
 ) -> dict:
     """One JSON output: ``version``, ``params``, ``seed`` (if given), the ``body`` with its
     keys standardised, ``cpu_s``, ``wall_s`` and ``units``."""
-    from bbdyn import __version__
-
     out: dict[str, Any] = {"version": __version__, "params": dict(params)}
     if seed is not None:
         out["seed"] = seed

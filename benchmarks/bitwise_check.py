@@ -29,7 +29,7 @@ def runs():
     from bbdyn import Params
     from bbdyn.billiard import simulate
     from bbdyn.ensemble import ensemble
-    from bbdyn.flatball import flat_ensemble, simulate_flat
+    from bbdyn.flat.flatball import flat_ensemble, simulate_flat
 
     obs = ("displacement", "energy", "jumps", "record")
     for f in FREQUENCIES:

@@ -2,7 +2,7 @@
 
 Run ``python derivations/flat_tongues.py`` to print each step.  The functions
 return the sympy expressions; ``tests/test_derivations.py`` checks that
-``bbdyn/tongues.py`` uses exactly these.
+``bbdyn/flat/tongues.py`` uses exactly these.
 
 The model (docs/model.md, section 1).  A ball bounces on a plate at height
 ``y_p(t) = -A sin(w t)``, velocity ``u(t) = -A w cos(w t)``.  Let an impact

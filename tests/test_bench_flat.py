@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 from scipy.optimize import brentq
 
-from bbdyn import cli
+from bbdyn.commands import cli
 from bbdyn.core.flat import FlatArrays, FlatState, flat_flight, flat_flight_tol, flat_run
 from bbdyn.core.status import IMPACT, OK
 from bbdyn.core.tolerances import EPS, ROOT_STEP_REL

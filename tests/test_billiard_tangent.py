@@ -268,7 +268,7 @@ def test_same_seed_same_numbers_and_windows_add_up():
 def test_cli_json_equals_the_api(capsys):
     import json
 
-    from bbdyn.cli import main
+    from bbdyn.commands.cli import main
     from bbdyn.lyapunov import billiard_lyapunov
 
     argv = ["lyapunov", "--f", "70", "--R", "20", "--n", "3", "--t", "1", "--no-classify"]
@@ -289,7 +289,7 @@ def test_locked_attractor_at_58_hz_has_the_top_orbits_exponent(capsys):
 
     from derivation_loader import load_derivation
 
-    from bbdyn.cli import main
+    from bbdyn.commands.cli import main
 
     assert main(["lyapunov", "--f", "58", "--n", "20", "--t", "10", "--json"]) == 0
     out = json.loads(capsys.readouterr().out)

@@ -15,7 +15,7 @@ import numba
 import numpy as np
 import pytest
 
-import bbdyn.ensemble
+import bbdyn.runs
 from bbdyn import Params
 from bbdyn.classify import trajectory_features
 from bbdyn.ensemble import ensemble
@@ -51,7 +51,7 @@ def test_chunk_size_and_threads_change_no_number(f, ff, t, chunks):
 def test_features_do_not_depend_on_the_chunk_size(monkeypatch, chunk):
     kw = {"t": 3.0, "n": 6, "seed": 4, "blocks": 4}
     whole = trajectory_features(Params(f=85.2), threads=1, **kw)
-    monkeypatch.setattr(bbdyn.ensemble, "CHUNK_EVENTS", chunk)
+    monkeypatch.setattr(bbdyn.runs, "CHUNK_EVENTS", chunk)
     for threads in THREADS:
         _equal(trajectory_features(Params(f=85.2), threads=threads, **kw), whole)
 

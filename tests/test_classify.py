@@ -1,7 +1,7 @@
 """Attractors, basins, ergodicity and regime: the flat ball, where the answers are known.
 
 The flat ball is the billiard with R = 1e9 mm (tests/test_billiard_limits.py shows it
-reproduces the flat map's impact sequence); the k/1 tongue edges come from bbdyn.tongues.
+reproduces the flat map's impact sequence); the k/1 tongue edges come from bbdyn.flat.tongues.
 """
 
 import json
@@ -20,10 +20,10 @@ from bbdyn.classify import (
     classify_features,
     trajectory_features,
 )
-from bbdyn.cli import main
+from bbdyn.commands.cli import main
 from bbdyn.core import features as core
+from bbdyn.flat.tongues import k1_orbit, params_at_gamma, tongue_gamma_hi, tongue_gamma_lo
 from bbdyn.results import make_meta
-from bbdyn.tongues import k1_orbit, params_at_gamma, tongue_gamma_hi, tongue_gamma_lo
 
 FLAT_R = 1e9
 

@@ -3,7 +3,7 @@
 Every case must end either in a valid result (exit 0; JSON that parses strictly with
 ``--json``; no NaN printed) or in a short, clear error (exit != 0, at most
 three lines on stderr, no traceback).  The test runs each case in-process through
-``bbdyn.cli.main``; run this file as a script to tally the outcomes of every case in
+``bbdyn.commands.cli.main``; run this file as a script to tally the outcomes of every case in
 fresh processes (with a time limit, so hangs are counted), for example on an older
 checkout::
 
@@ -232,8 +232,8 @@ def classify_outcome(argv: list[str], expected: str, code: int, out: str, err: s
 
 
 def run_main(argv: list[str]) -> int:
-    """Exit status of ``bbdyn.cli.main(argv)``: its return value or its SystemExit code."""
-    from bbdyn.cli import main
+    """Exit status of ``bbdyn.commands.cli.main(argv)``: its return value or its SystemExit code."""
+    from bbdyn.commands.cli import main
 
     try:
         return main(argv)
@@ -261,8 +261,8 @@ def test_bad_input_gives_a_clear_error_or_a_valid_result(
 
 
 def run_case(argv: list[str], expected: str, tmp: Path) -> str:
-    """Run one case in a fresh ``python -m bbdyn.cli`` process; its outcome category."""
-    cmd = [sys.executable, "-m", "bbdyn.cli", *fill(argv, tmp)]
+    """Run one case in a fresh ``python -m bbdyn.commands.cli`` process; its outcome category."""
+    cmd = [sys.executable, "-m", "bbdyn.commands.cli", *fill(argv, tmp)]
     try:
         proc = subprocess.run(cmd, capture_output=True, text=True, timeout=TIME_LIMIT_S)
     except subprocess.TimeoutExpired:
@@ -272,7 +272,7 @@ def run_case(argv: list[str], expected: str, tmp: Path) -> str:
 
 def run_broken_pipe() -> str:
     """``bbdyn tongues --json | head -c 0``: the reader has gone before the first write."""
-    cmd = [sys.executable, "-m", "bbdyn.cli", "tongues", "--kmax", "2", "--json"]
+    cmd = [sys.executable, "-m", "bbdyn.commands.cli", "tongues", "--kmax", "2", "--json"]
     proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     proc.stdout.close()
     try:

@@ -1,4 +1,5 @@
-"""How ``bbdyn.cli.main`` ends every kind of failure: exit status, a short message, no traceback.
+"""How ``bbdyn.commands.cli.main`` ends every kind of failure: exit status, a short message,
+no traceback.
 
 Each failure is provoked where it really happens (a bad path, a closed pipe) or, where
 that cannot be done safely in a test (no space left, out of memory, a kernel failure,
@@ -13,8 +14,7 @@ import sys
 import pytest
 from test_cli_bad_inputs import run_main
 
-from bbdyn import cli
-from bbdyn.commands import tongues
+from bbdyn.commands import bench, cli, tongues
 from bbdyn.core.status import SimulationError
 
 SIM = ["simulate", "--f", "85.2", "--n", "4", "--t", "1"]
@@ -64,9 +64,7 @@ def test_save_onto_a_folder_is_refused(tmp_path, capsys):
 def test_an_unwritable_folder_is_refused_before_the_run(monkeypatch, capsys):
     """/proc exists and its permission bits let root write, but no file can be made there:
     refused while the command line is parsed, before the benchmark runs."""
-    import bbdyn.scenes
-
-    monkeypatch.setattr(bbdyn.scenes, "run_scene", lambda *a, **k: pytest.fail("it ran"))
+    monkeypatch.setattr(bench, "run_scene", lambda *a, **k: pytest.fail("it ran"))
     assert run_main(["bench", "flat", "--quick", "--out", "/proc/bbdyn_b.png"]) == 2
     assert "folder /proc is not writable" in short_message(capsys.readouterr().err)[0]
 
@@ -176,7 +174,7 @@ def test_closed_pipe_exits_quietly(argv, status):
     command exits 141 (128 + SIGPIPE, as a tool killed by SIGPIPE) with nothing on stderr.
     argparse itself ignores a failed write of the help text, so ``--help`` exits 0."""
     proc = subprocess.Popen(
-        [sys.executable, "-m", "bbdyn.cli", *argv],
+        [sys.executable, "-m", "bbdyn.commands.cli", *argv],
         stdout=subprocess.PIPE,
         stderr=subprocess.PIPE,
         text=True,
@@ -188,7 +186,7 @@ def test_closed_pipe_exits_quietly(argv, status):
 
 def test_an_oserror_that_is_not_about_a_path_keeps_its_own_remedy():
     """The path hint is for path errors only: e.g. an unreachable scheduler says what to do."""
-    from bbdyn.cli import explain
+    from bbdyn.commands.cli import explain
 
     status, text = explain(OSError("no scheduler answers at tcp://x: start it"), None)
     assert status != 0 and "start it" in text and "check the path" not in text

@@ -2,7 +2,7 @@
 
 Each argument list mixes valid and invalid values (huge, tiny, negative, NaN, inf,
 words, empty), missing and extra arguments and bad output paths, and runs in-process
-through ``bbdyn.cli.main``.  It must either succeed (exit 0 with output; JSON that
+through ``bbdyn.commands.cli.main``.  It must either succeed (exit 0 with output; JSON that
 parses strictly with ``--json``) or fail with a short message (exit != 0, at most three
 lines on stderr naming the error, never a traceback).  Valid runs are kept tiny (at
 most 5 particles for at most 2 s; huge n and t only where they are refused), and the

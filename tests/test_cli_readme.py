@@ -10,7 +10,7 @@ from pathlib import Path
 
 import pytest
 
-from bbdyn import cli
+from bbdyn.commands import cli
 
 README = Path(__file__).resolve().parents[1] / "README.md"
 SETUP = (

@@ -1,11 +1,14 @@
-"""Continuation of periodic orbits of the exact flat map (bbdyn.continuation)."""
+"""Continuation of periodic orbits of the exact flat map (bbdyn.flat.continuation)."""
 
 import math
 
 import numpy as np
 import pytest
 
-from bbdyn.continuation import (
+from bbdyn.core.flat import FlatArrays, FlatState, flat_run
+from bbdyn.core.plate import TWO_PI
+from bbdyn.core.status import IMPACT, OK
+from bbdyn.flat.continuation import (
     FEIGENBAUM_DELTA,
     cascade,
     continue_branch,
@@ -13,10 +16,7 @@ from bbdyn.continuation import (
     orbit_chain,
     unit_kernel,
 )
-from bbdyn.core.flat import FlatArrays, FlatState, flat_run
-from bbdyn.core.plate import TWO_PI
-from bbdyn.core.status import IMPACT, OK
-from bbdyn.tongues import (
+from bbdyn.flat.tongues import (
     k1_cos_phase,
     map_jacobian,
     params_at_gamma,
@@ -76,7 +76,7 @@ def test_doubled_orbits_are_what_direct_iteration_converges_to(k):
     """Just past the n-th doubling the exact map settles on the 2^n orbit found by
     continuation (point by point), just before it on a 2^(n-1) orbit (n = 1, 2:
     periods 2 and 4)."""
-    from bbdyn.continuation import _correct_at_gamma
+    from bbdyn.flat.continuation import _correct_at_gamma
 
     alpha = 0.5
     gammas, status, _, branches = cascade(k, alpha, 3)
@@ -120,7 +120,7 @@ def test_feigenbaum_ratios_converge():
 )
 def test_km_multipliers_are_the_eigenvalues_of_the_jacobian_product(k, m, gamma):
     """Multipliers of a k/m orbit (dimensionless chain) against the product of
-    ``bbdyn.tongues.map_jacobian`` in mm and s along it, and det = alpha^(2m)."""
+    ``bbdyn.flat.tongues.map_jacobian`` in mm and s along it, and det = alpha^(2m)."""
     alpha = 0.5
     orbits = km_orbit_guesses(k, m, alpha, [gamma], n_phase=24)
     assert orbits, f"no {k}/{m} orbit found at Gamma = {gamma}"
@@ -146,7 +146,7 @@ def test_stored_cascades_are_what_the_cascade_computes():
     import json
     from pathlib import Path
 
-    from bbdyn.continuation import doubling_cascade
+    from bbdyn.flat.continuation import doubling_cascade
 
     path = Path(__file__).parents[1] / "docs" / "data" / "flat_tables.json"
     stored = json.loads(path.read_text())["doublings"]
@@ -165,7 +165,7 @@ def test_stored_cascades_are_what_the_cascade_computes():
 
 def _cli(argv):
     """Exit status of ``bbdyn argv`` (SystemExit caught)."""
-    from bbdyn.cli import main
+    from bbdyn.commands.cli import main
 
     try:
         return main(argv)
@@ -227,7 +227,7 @@ def test_scene_b4_quick_agrees_with_closed_forms_and_iteration():
 def test_replay_reports_a_stick_as_chatter_and_a_wrong_orbit_as_replay():
     """A launch at 1e-9 g/w where the plate holds the ball chatters and sticks (status
     "chatter"); a point that is not on its claimed orbit is reported as "replay"."""
-    from bbdyn.continuation import Chain, _replay_ok
+    from bbdyn.flat.continuation import Chain, _replay_ok
 
     def chain(theta, V):
         z = np.zeros(2)

@@ -1,4 +1,5 @@
-"""The expressions bbdyn/tongues.py uses equal the ones derived in derivations/flat_tongues.py."""
+"""The expressions bbdyn/flat/tongues.py uses equal the ones derived in
+derivations/flat_tongues.py."""
 
 import math
 
@@ -9,7 +10,7 @@ from extras import require
 
 from bbdyn import Params
 from bbdyn.core.flat_jacobian import flat_map_jacobian
-from bbdyn.tongues import (
+from bbdyn.flat.tongues import (
     k1_cos_phase,
     k1_trace,
     k1_velocity,

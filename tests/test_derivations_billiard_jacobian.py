@@ -20,7 +20,7 @@ from bbdyn import Params
 from bbdyn.core.billiard_tangent import billiard_tangent_event, billiard_tangent_run
 from bbdyn.core.status import IMPACT, OK
 from bbdyn.core.tangent import TangentWindows
-from bbdyn.tongues import k1_orbit
+from bbdyn.flat.tongues import k1_orbit
 
 sp = require("sympy", "derivations")
 

@@ -13,8 +13,8 @@ from pathlib import Path
 import datavalue  # docs/_ext, on the path by conftest.py
 import pytest
 
+from bbdyn.flat.tongues import frequency_at_gamma, tongue_gamma_hi, tongue_gamma_lo
 from bbdyn.params import Params
-from bbdyn.tongues import frequency_at_gamma, tongue_gamma_hi, tongue_gamma_lo
 
 ROOT = Path(__file__).resolve().parents[1]
 MODEL = ROOT / "docs" / "model.md"
@@ -141,7 +141,7 @@ def test_no_references_outside_repository():
 
 def test_wedge_and_high_bounce_numbers():
     from bbdyn.core.tolerances import EPS, WEDGE_MAX_REFLECTIONS, WEDGE_TOL
-    from bbdyn.highbounce import tongue_errors
+    from bbdyn.flat.highbounce import tongue_errors
 
     text = section(MODEL_TEXT, "2. Bouncing ball billiard")
     tol = re.search(r"within \$(\d+) \\varepsilon d\$", text).group(1)

@@ -263,7 +263,7 @@ def test_simulate_takes_the_mode(capsys):
     # converged mode and the event-by-event run give the same energies to FF_ENERGY_REL_TOL
     import json
 
-    from bbdyn import cli
+    from bbdyn.commands import cli
 
     out = {}
     for mode in ("converged", "off"):

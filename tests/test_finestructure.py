@@ -192,7 +192,6 @@ def test_scene_b6_tiny_run_shares_and_resumes(tmp_path):
 
 
 def test_scene_b6_passes_the_scheduler(monkeypatch, tmp_path):
-    import bbdyn.scans.runner
     from bbdyn.scenes import b6_fine_structure as b6
 
     seen = {}
@@ -201,7 +200,7 @@ def test_scene_b6_passes_the_scheduler(monkeypatch, tmp_path):
         seen.update(kwargs)
         raise RuntimeError("stop")
 
-    monkeypatch.setattr(bbdyn.scans.runner, "run_scan", fake_run_scan)
+    monkeypatch.setattr(b6, "run_scan", fake_run_scan)
     with pytest.raises(RuntimeError, match="stop"):
         b6.compute({**TINY, "scheduler": "tcp://cluster:8786"}, 0, out_dir=tmp_path)
     assert seen["scheduler"] == "tcp://cluster:8786"

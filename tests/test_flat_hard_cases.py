@@ -17,7 +17,7 @@ from bbdyn.core.tolerances import (
     IMPACT_TIME_TOL,
     ROOT_STEP_REL,
 )
-from bbdyn.flatball import flat_ensemble, simulate_flat
+from bbdyn.flat.flatball import flat_ensemble, simulate_flat
 from bbdyn.reference.flat_mpmath import reference_impacts
 
 # ---- grazing -------------------------------------------------------------------------

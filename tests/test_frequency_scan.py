@@ -26,13 +26,13 @@ from bbdyn.diffusion import (
     window_consistency,
 )
 from bbdyn.ensemble import ensemble
+from bbdyn.flat.tongues import tongue_intervals
 from bbdyn.scans.frequency import (
     diffusion_point,
     frequency_grid,
     frequency_scan,
 )
 from bbdyn.scans.runner import load_scan
-from bbdyn.tongues import tongue_intervals
 
 D_TRUE = 2.5  # mm^2/s
 TINY = {"n": 6, "t": 1.0}
@@ -288,7 +288,7 @@ def test_transient_zero_averages_from_the_start(tmp_path):
     ],  # fmt: skip
 )
 def test_refused_scan_writes_nothing(tmp_path, capsys, option, value, match):
-    from bbdyn.cli import main
+    from bbdyn.commands.cli import main
 
     out = tmp_path / "scan"
     args = ["scan", "--f-start", "60", "--f-stop", "61", "--n", "4", "--t", "1", "--out", str(out)]

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from bbdyn import Params
-from bbdyn.cli import main
+from bbdyn.commands.cli import main
 from bbdyn.scans.green_kubo import gk_numbers, gk_point, gk_run, gk_scan
 from bbdyn.scans.runner import point_seed
 

@@ -8,8 +8,20 @@ import pytest
 from bbdyn import Params
 from bbdyn.core.flat import FlatArrays, FlatState, flat_run
 from bbdyn.core.status import IMPACT, OK
-from bbdyn.highbounce import flight_phase_error, hb_gamma_hi, hb_jacobian, hb_run, tongue_errors
-from bbdyn.tongues import k1_cos_phase, k1_orbit, params_at_gamma, tongue_gamma_hi, tongue_gamma_lo
+from bbdyn.flat.highbounce import (
+    flight_phase_error,
+    hb_gamma_hi,
+    hb_jacobian,
+    hb_run,
+    tongue_errors,
+)
+from bbdyn.flat.tongues import (
+    k1_cos_phase,
+    k1_orbit,
+    params_at_gamma,
+    tongue_gamma_hi,
+    tongue_gamma_lo,
+)
 
 
 def _slope(xs, ys):

@@ -10,7 +10,7 @@ import sys
 import numpy as np
 
 import bbdyn
-from bbdyn import cli
+from bbdyn.commands import cli
 from bbdyn.results import _REGISTRY, KINDS, Result
 
 

@@ -15,15 +15,15 @@ from bbdyn.core.flat import FlatArrays, FlatState, flat_run
 from bbdyn.core.plate import TWO_PI
 from bbdyn.core.status import IMPACT, OK, STICK, STUCK_FOREVER
 from bbdyn.core.tangent import TangentWindows, flat_tangent_run
-from bbdyn.lyapunov import flat_lyapunov, flat_lyapunov_from
-from bbdyn.params import Params
-from bbdyn.tongues import (
+from bbdyn.flat.tongues import (
     find_periodic_orbit,
     k1_orbit,
     k1_orbit_numeric,
     params_at_gamma,
     tongue_gamma_hi,
 )
+from bbdyn.lyapunov import flat_lyapunov, flat_lyapunov_from
+from bbdyn.params import Params
 
 ALPHA = 0.5
 #: a chaotic flat ball (positive exponent, rare sticks) for the trajectory checks
@@ -265,7 +265,7 @@ def test_lyapunov_command_warns_when_the_windows_drift(capsys):
     ``windows_agree: false`` in the JSON; at 85.2 Hz they agree, no warning."""
     import json
 
-    from bbdyn.cli import main
+    from bbdyn.commands.cli import main
 
     for f, agree in (("55", False), ("85.2", True)):
         assert main(["lyapunov", "--f", f, "--json"]) == 0

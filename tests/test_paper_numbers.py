@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 
 from bbdyn import Params
-from bbdyn.tongues import (
+from bbdyn.flat.tongues import (
     frequency_at_gamma,
     gamma_hi_numeric,
     gamma_lo_numeric,

@@ -82,7 +82,7 @@ def test_simulate_command_reports_a_failed_particle_and_uses_the_others(monkeypa
     import json
 
     import bbdyn.ensemble as ens
-    from bbdyn.cli import main
+    from bbdyn.commands.cli import main
 
     monkeypatch.setattr(
         ens, "initial_conditions", lambda *a, **k: np.array([GOOD[0], BAD, GOOD[1], GOOD[2]])

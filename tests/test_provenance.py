@@ -9,7 +9,7 @@ from pathlib import Path
 import pytest
 
 from bbdyn import __version__
-from bbdyn.cli import main
+from bbdyn.commands.cli import main
 from bbdyn.results import load_result
 from bbdyn.scenes import (
     SCENES,

@@ -12,7 +12,8 @@ import pytest
 
 from bbdyn import Params
 from bbdyn.classify import trajectory_features
-from bbdyn.ensemble import EVENTS_PER_PERIOD, ensemble
+from bbdyn.ensemble import ensemble
+from bbdyn.runs import EVENTS_PER_PERIOD
 
 
 def test_rate_model_bounds_the_measured_event_rates():

@@ -8,7 +8,7 @@ import time
 import numpy as np
 import pytest
 
-from bbdyn import cli
+from bbdyn.commands import cli
 from bbdyn.scans.frequency import frequency_scan
 from bbdyn.scans.runner import load_scan, run_scan
 

@@ -303,7 +303,7 @@ def test_full_disk_in_the_command_is_a_short_message(tmp_path):
         "    if len(calls) > 1: raise OSError(errno.ENOSPC, 'No space left on device')\n"
         "    return real(*a, **k)\n"
         "r.np.savez = savez\n"
-        "from bbdyn.cli import main; sys.exit(main(sys.argv[1:]))\n"
+        "from bbdyn.commands.cli import main; sys.exit(main(sys.argv[1:]))\n"
     )
     args = ["scan", "--f-start", "60", "--f-stop", "61", "--f-step", "0.5", "--n", "4",
             "--t", "1", "--workers", "1", "--out", str(out)]  # fmt: skip
@@ -313,7 +313,7 @@ def test_full_disk_in_the_command_is_a_short_message(tmp_path):
     assert "Traceback" not in run.stderr and "leaked" not in run.stderr, run.stderr
     assert str(out) in run.stderr and "free disk space" in run.stderr, run.stderr
     assert len(list(out.glob("points/*.json"))) == 1
-    resumed = subprocess.run([sys.executable, "-m", "bbdyn.cli", *args, "--resume"],
+    resumed = subprocess.run([sys.executable, "-m", "bbdyn.commands.cli", *args, "--resume"],
                              capture_output=True, text=True, timeout=120)  # fmt: skip
     assert resumed.returncode == 0, resumed.stderr
     assert load_scan(out).values.tolist() == [60.0, 60.5, 61.0]
@@ -333,7 +333,7 @@ def test_interrupted_command_says_what_is_saved_and_how_to_finish(tmp_path):
         "    if len(calls) > 1: raise KeyboardInterrupt\n"
         "    return real(*a, **k)\n"
         "r.np.savez = savez\n"
-        "from bbdyn.cli import main; sys.exit(main(sys.argv[1:]))\n"
+        "from bbdyn.commands.cli import main; sys.exit(main(sys.argv[1:]))\n"
     )
     args = ["scan", "--f-start", "60", "--f-stop", "61", "--f-step", "0.5", "--n", "4",
             "--t", "1", "--R", "20", "--workers", "1", "--out", str(out)]  # fmt: skip
@@ -344,7 +344,7 @@ def test_interrupted_command_says_what_is_saved_and_how_to_finish(tmp_path):
     assert f"1 of 3 points are saved in {out}" in said, said
     command = shlex.split(said.split("finish the scan with: ")[1])
     assert command[:2] == ["bbdyn", "scan"] and "--resume" in command
-    resumed = subprocess.run([sys.executable, "-m", "bbdyn.cli", *command[1:]],
+    resumed = subprocess.run([sys.executable, "-m", "bbdyn.commands.cli", *command[1:]],
                              capture_output=True, text=True, timeout=120)  # fmt: skip
     assert resumed.returncode == 0, resumed.stderr
     scan = load_scan(out)

@@ -8,7 +8,7 @@ import matplotlib.pyplot as plt
 import numpy as np
 import pytest
 
-from bbdyn.cli import main
+from bbdyn.commands.cli import main
 from bbdyn.results import load_result
 from bbdyn.scans.cache import scene_folder
 from bbdyn.scenes import redraw_scene, scene_module

@@ -8,7 +8,8 @@ from pathlib import Path
 
 import pytest
 
-from bbdyn import cli, schema
+from bbdyn import schema
+from bbdyn.commands import cli
 
 TINY = ["--f", "85.2", "--n", "4", "--t", "1", "--seed", "3"]
 

@@ -10,7 +10,7 @@ from bbdyn.core.flat import FlatArrays, FlatState, flat_event, flat_flight, flat
 from bbdyn.core.flat_jacobian import flat_map_jacobian
 from bbdyn.core.status import IMPACT, OK, STICK
 from bbdyn.core.tolerances import FD_AGREE_REL, FD_STEP_REL, ORBIT_NEWTON_TOL
-from bbdyn.tongues import (
+from bbdyn.flat.tongues import (
     OrbitNotFound,
     find_periodic_orbit,
     gamma_hi_numeric,
@@ -251,7 +251,7 @@ def test_tongue_table_frequencies_match_model_md():
 def test_cli_tongues_json_matches_closed_form_and_numeric_edges(capsys):
     import json
 
-    from bbdyn.cli import main
+    from bbdyn.commands.cli import main
 
     assert main(["tongues", "--alpha", "0.5", "--kmax", "3", "--json"]) == 0
     rows = json.loads(capsys.readouterr().out)["tongues"]
@@ -285,7 +285,7 @@ def test_stored_tongue_table_is_the_closed_form_and_the_numeric_edges_agree():
     import json
     from pathlib import Path
 
-    from bbdyn.tongues import frequency_at_gamma, tongue_gamma_hi, tongue_gamma_lo
+    from bbdyn.flat.tongues import frequency_at_gamma, tongue_gamma_hi, tongue_gamma_lo
 
     path = Path(__file__).parents[1] / "docs" / "data" / "flat_tables.json"
     for row in json.loads(path.read_text())["tongues"]:

@@ -1,4 +1,5 @@
-"""Subcommands of the ``bbdyn`` CLI, one module each (see ``bbdyn.cli``), and what they share.
+"""Subcommands of the ``bbdyn`` CLI, one module each (entry point ``bbdyn.commands.cli``),
+and what they share.
 
 Argument types refuse a bad value while the command line is parsed, so the message
 names the option (``argument --n: n must be an integer >= 2 ...``) and nothing has
@@ -23,8 +24,11 @@ from collections.abc import Callable
 from pathlib import Path
 
 from bbdyn.params import Params
+from bbdyn.results import result_paths
+from bbdyn.runs import N_MIN
 from bbdyn.scans.progress import Progress, progress_stream
 from bbdyn.scans.progress import rough_duration as duration
+from bbdyn.schema import document
 
 #: Defaults of the fields of ``bbdyn.Params`` (f has none).
 PARAM_DEFAULTS = {
@@ -61,10 +65,8 @@ def integer_in(name: str, low: int, high: int | None = None, why="") -> Callable
 
 
 def particles(text: str) -> int:
-    """``--n``, the number of particles: the ensemble API's rule (``bbdyn.ensemble.N_MIN``),
+    """``--n``, the number of particles: the ensemble API's rule (``bbdyn.runs.N_MIN``),
     the same for every command."""
-    from bbdyn.ensemble import N_MIN
-
     why = "D, the energies and the stuck fraction carry standard errors over particles"
     return integer_in("n", N_MIN, None, why)(text)
 
@@ -140,8 +142,6 @@ output_file = _writable_folder
 def save_result(result, name: Path, json_mode: bool) -> None:
     """Save ``result`` (``Result.save``) as ``name`` and say where: on stdout, or on stderr
     when stdout carries JSON.  An OSError is raised again naming the files."""
-    from bbdyn.results import result_paths
-
     npz, json_path = result_paths(name)
     try:
         result.save(name)
@@ -257,8 +257,6 @@ class Clock:
 def json_output(body: dict, *, params: dict, clock: Clock, seed: int | None = None) -> dict:
     """The JSON object of a command (``bbdyn.schema.document``) timed by ``clock``: the
     CPU time of this process, which did the work."""
-    from bbdyn.schema import document
-
     return document(body, params=params, cpu_s=clock.cpu_s(), wall_s=clock.wall_s(), seed=seed)
 
 

@@ -10,6 +10,7 @@ described in docs/benchmarks.md), ``cpu_s``, ``wall_s`` and ``units``.
 """
 
 from bbdyn.commands import Clock, integer_in, json_output, output_file, print_json, report_written
+from bbdyn.scenes import run_scene, scene_module
 
 HELP = "work-precision benchmark (B2): speed and error against an mpmath reference"
 
@@ -43,8 +44,6 @@ def add_arguments(parser) -> None:
 
 def run(args) -> int:
     from pathlib import Path
-
-    from bbdyn.scenes import run_scene, scene_module
 
     scene_id = TARGETS[args.target]
     overrides = {k: v for k, v in (("n_impacts", args.impacts), ("long_run", args.long_run))

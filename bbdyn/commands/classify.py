@@ -21,6 +21,8 @@ R mm, d mm), ``seed``, ``gamma``, ``n``, ``t``, ``transient`` (s), ``boxes``; ``
 import argparse
 import sys
 
+from bbdyn import Params
+from bbdyn.classify import Thresholds, classify
 from bbdyn.commands import (
     Clock,
     add_ensemble_arguments,
@@ -33,6 +35,7 @@ from bbdyn.commands import (
     report_written,
     run_progress,
 )
+from bbdyn.ensemble import Box, ensemble, reference_box
 
 HELP = "classify the dynamics at one frequency: attractors, basins, ergodicity, regime"
 
@@ -85,8 +88,6 @@ def use_positional_frequency(args) -> None:
 
 def parse_box(text: str, params):
     """A ``Box`` from a name in ``BOX_NAMES`` or six comma-separated numbers."""
-    from bbdyn.ensemble import Box, reference_box
-
     if text == "ref":
         return reference_box(params)
     if text == "high":
@@ -102,8 +103,6 @@ def parse_box(text: str, params):
 
 def classify_summary(args):
     """Run the classifier described by ``args``; returns ``(summary dict, Classification)``."""
-    from bbdyn.classify import Thresholds, classify
-
     clock = Clock()
     params = params_from(args)
     thresholds = Thresholds() if args.hop_floor is None else Thresholds(hop_floor=args.hop_floor)
@@ -137,9 +136,6 @@ def attractor_figure(res):
     without attractors only the overview.  Returns the Figure."""
     import matplotlib.pyplot as plt
     import numpy as np
-
-    from bbdyn import Params
-    from bbdyn.ensemble import ensemble
 
     params = Params(**res.meta["params"])
     atts = res.summary["attractors"]

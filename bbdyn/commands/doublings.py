@@ -15,6 +15,7 @@ from bbdyn.commands import (
     model_values,
     print_json,
 )
+from bbdyn.flat.continuation import FEIGENBAUM_DELTA, doubling_cascade
 
 HELP = (
     "period-doubling cascades of the k/1 orbits of the flat ball: Gamma of each doubling "
@@ -43,8 +44,6 @@ def add_arguments(parser) -> None:
 
 
 def run(args) -> int:
-    from bbdyn.continuation import FEIGENBAUM_DELTA, doubling_cascade
-
     clock = Clock()
     table = doubling_cascade(args.alpha, args.kmax, args.levels)
     rows = table.rows()

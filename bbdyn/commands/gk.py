@@ -31,6 +31,7 @@ from bbdyn.commands import (
     run_progress,
     save_result,
 )
+from bbdyn.scans.green_kubo import gk_numbers, gk_run
 
 HELP = "random-walk and truncated Green-Kubo approximations of D at one frequency"
 
@@ -64,8 +65,6 @@ def trapped_reason(n_jumps: int, gamma: float) -> str:
 
 def gk_summary(args) -> dict:
     """Run ``gk_run`` as described by ``args``; the printed quantities as a JSON-ready dict."""
-    from bbdyn.scans.green_kubo import gk_numbers, gk_run
-
     clock = Clock()
     params = params_from(args)
     bar = run_progress("gk", args.t, args.json)

@@ -35,6 +35,7 @@ from bbdyn.commands import (
     print_json,
     seed,
 )
+from bbdyn.lyapunov import billiard_lyapunov, flat_lyapunov
 
 HELP = "Largest Lyapunov exponent of the billiard per attractor (or the flat ball's, --flat)"
 
@@ -80,8 +81,6 @@ def lyapunov_summary(args) -> dict:
 
 def flat_summary(args) -> dict:
     """The flat ball's numbers with the window exponents (keys of the Python objects)."""
-    from bbdyn.lyapunov import flat_lyapunov
-
     params = params_from(args)
     res = flat_lyapunov(
         params, args.n, t=args.t, transient=args.transient, windows=args.windows, seed=args.seed
@@ -98,8 +97,6 @@ def flat_summary(args) -> dict:
 def billiard_summary(args) -> dict:
     """The billiard's numbers: the ensemble's, and each attractor's unless ``--no-classify``
     (keys of the Python objects)."""
-    from bbdyn.lyapunov import billiard_lyapunov
-
     params = params_from(args)
     classified = not args.no_classify
     res = billiard_lyapunov(

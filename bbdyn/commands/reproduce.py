@@ -2,6 +2,7 @@
 ``bbdyn reproduce --docs [--only ID ...]``: scenes with an index page, or the figures of docs/."""
 
 from bbdyn.commands import add_setting_arguments, output_folder, seed
+from bbdyn.scenes.reproduce import reproduce, reproduce_docs
 
 HELP = "run every available scene and write figures, their data and an index page to a folder"
 
@@ -25,8 +26,6 @@ def add_arguments(parser) -> None:
 
 
 def run(args) -> int:
-    from bbdyn.scenes.reproduce import reproduce, reproduce_docs
-
     if args.docs:
         if args.out is not None:
             raise ValueError(

@@ -36,6 +36,16 @@ from bbdyn.commands import (
     report_written,
     seed,
 )
+from bbdyn.commands.cli import Interrupted
+from bbdyn.scans.frequency import check_scan_size, frequency_grid, frequency_scan, grid_size
+from bbdyn.scans.runner import (
+    IO_EXTRA,
+    MANIFEST,
+    ScanBusyError,
+    ScanStorageError,
+    SchedulerUnreachableError,
+    load_scan,
+)
 
 HELP = "scan D(f), E(f), E_x(f) over a frequency grid (resumable, parallel; docs/diffusion.md)"
 #: The whole scan as one netCDF file, in the scan folder.
@@ -115,8 +125,6 @@ def resume_command(args) -> str:
     import shlex
     from pathlib import Path
 
-    from bbdyn.scans.runner import MANIFEST
-
     argv = ["bbdyn", "scan", "--f-start", repr(args.f_start), "--f-stop", repr(args.f_stop),
             "--f-step", repr(args.f_step)]  # fmt: skip
     argv += [f"--{k}={v!r}" for k, v in model_values(args).items() if v != PARAM_DEFAULTS[k]]
@@ -134,8 +142,6 @@ def saved_points(out: str) -> str:
     """How many points of the scan in ``out`` are saved, e.g. ``3 of 10 points are saved``."""
     import warnings
 
-    from bbdyn.scans.runner import load_scan
-
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")  # a damaged point is simply not counted
@@ -150,15 +156,6 @@ def run(args) -> int:
     import sys
     import warnings
     from pathlib import Path
-
-    from bbdyn.cli import Interrupted
-    from bbdyn.scans.frequency import check_scan_size, frequency_grid, frequency_scan, grid_size
-    from bbdyn.scans.runner import (
-        MANIFEST,
-        ScanBusyError,
-        ScanStorageError,
-        SchedulerUnreachableError,
-    )
 
     if args.resume and not (Path(args.out) / MANIFEST).is_file():
         raise ValueError(
@@ -231,8 +228,6 @@ def run(args) -> int:
 def write_netcdf(scan, out: str, json_mode: bool) -> None:
     """Write the finished scan as ``out/scan.nc``; without xarray, a note naming the extra."""
     from pathlib import Path
-
-    from bbdyn.scans.runner import IO_EXTRA
 
     path = Path(out) / NETCDF
     try:

@@ -1,7 +1,7 @@
 """`bbdyn scene ID [--quick|--medium|--full] [--out DIR]`: draw one scene, save its numbers."""
 
 from bbdyn.commands import add_setting_arguments, output_folder, seed
-from bbdyn.scenes import SCENES
+from bbdyn.scenes import SCENES, run_scene, scene_module
 
 HELP = f"compute and draw one scene ({', '.join(SCENES)}), saving its numbers beside the figure"
 
@@ -16,8 +16,6 @@ def add_arguments(parser) -> None:
 
 
 def run(args) -> int:
-    from bbdyn.scenes import run_scene, scene_module
-
     result, png = run_scene(
         args.scene_id, setting=args.setting, out_dir=args.out, seed=args.seed, progress=True
     )

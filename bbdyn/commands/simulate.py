@@ -28,6 +28,8 @@ from bbdyn.commands import (
     save_result,
 )
 from bbdyn.core.status import FAST_FORWARD_MODES
+from bbdyn.diffusion import einstein_D_windows
+from bbdyn.ensemble import ensemble
 
 HELP = "run the reference ensemble at one frequency and print D, energies, stuck fraction"
 
@@ -49,9 +51,6 @@ def add_arguments(parser) -> None:
 
 def simulate_summary(args) -> dict:
     """Run the ensemble described by ``args`` and return the printed quantities."""
-    from bbdyn.diffusion import einstein_D_windows
-    from bbdyn.ensemble import ensemble
-
     clock = Clock()
     params = params_from(args)
     bar = run_progress("simulate", args.t, args.json)

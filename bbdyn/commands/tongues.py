@@ -17,6 +17,7 @@ from bbdyn.commands import (
     model_values,
     print_json,
 )
+from bbdyn.flat.tongues import OrbitNotFound, tongue_table
 
 HELP = "k/1 Arnold tongue edges of the flat ball: closed form and from the exact map's multipliers"
 
@@ -45,8 +46,6 @@ def add_arguments(parser) -> None:
 
 
 def run(args) -> int:
-    from bbdyn.tongues import OrbitNotFound, tongue_table
-
     clock = Clock()
     numeric = args.alpha > 0 and not args.closed_form  # at alpha = 0 the k/1 orbit sticks
     try:

@@ -16,6 +16,12 @@ import json
 import os
 from pathlib import Path
 
+from bbdyn import __version__
+from bbdyn.scans.frequency import frequency_grid, frequency_scan, scan_cpu_forecast
+from bbdyn.scans.green_kubo import gk_scan
+from bbdyn.scans.runner import load_scan
+from bbdyn.sources import package_digest
+
 __all__ = ["FAMILIES", "scene_folder", "setting_grid", "grid_cpu_forecast", "diffusion_scan",
            "gk_scene_scan"]  # fmt: skip
 
@@ -36,9 +42,6 @@ def scene_folder(family: str, settings: dict, seed: int, out_dir=None) -> Path:
     ``out_dir`` defaults to ``$BBDYN_CACHE`` or ``~/.cache/bbdyn``; ``settings["scan_dir"]``
     names a folder explicitly.
     """
-    from bbdyn import __version__
-    from bbdyn.sources import package_digest
-
     if settings.get("scan_dir"):
         return Path(settings["scan_dir"])
     if out_dir is None:
@@ -51,16 +54,12 @@ def scene_folder(family: str, settings: dict, seed: int, out_dir=None) -> Path:
 
 def setting_grid(settings: dict):
     """The frequencies (Hz) of a grid setting: ``frequency_grid(f_start, f_stop, f_step)``."""
-    from bbdyn.scans.frequency import frequency_grid
-
     return frequency_grid(settings["f_start"], settings["f_stop"], settings["f_step"])
 
 
 def grid_cpu_forecast(settings: dict) -> dict[str, float]:
     """Forecast of the CPU time (s) of the scan of a grid setting (``n`` particles for ``t`` s
     at every frequency of ``setting_grid``): ``bbdyn.scans.frequency.scan_cpu_forecast``."""
-    from bbdyn.scans.frequency import scan_cpu_forecast
-
     grid = setting_grid(settings)
     return scan_cpu_forecast(grid.sum(), grid.size, settings["n"], settings["t"],
                              workers=settings.get("workers"))  # fmt: skip
@@ -71,9 +70,6 @@ def diffusion_scan(settings: dict, seed: int, out_dir=None, progress=False):
     ``frequency_grid(f_start, f_stop, f_step)``): loaded if finished, else computed or
     resumed (``progress`` as in ``run_scan``).  With an explicit ``settings["scan_dir"]`` the
     scan is only loaded, and with ``settings["partial"]`` true its finished points are enough."""
-    from bbdyn.scans.frequency import frequency_scan
-    from bbdyn.scans.runner import load_scan
-
     folder = scene_folder("diffusion", settings, seed, out_dir)
     if settings.get("scan_dir"):
         return load_scan(folder, partial=bool(settings.get("partial", False)))
@@ -93,8 +89,6 @@ def gk_scene_scan(settings: dict, seed: int, out_dir=None, progress=False):
     """The Green-Kubo scan of an S9/S10 setting (``bbdyn.scans.green_kubo.gk_scan`` on
     ``frequency_grid(f_start, f_stop, f_step)``), computed or resumed;
     ``settings["workers"]`` optional; ``progress`` as in ``run_scan``."""
-    from bbdyn.scans.green_kubo import gk_scan
-
     return gk_scan(
         setting_grid(settings),
         out_dir=scene_folder("gk", settings, seed, out_dir),

@@ -34,8 +34,13 @@ import math
 import numpy as np
 
 from bbdyn.core.status import STUCK_FOREVER
+from bbdyn.core.tolerances import OBS_INTEGRAL_REL_TOL, SUM_ROUND_PER_TERM
+from bbdyn.diffusion import einstein_D, einstein_D_bootstrap, einstein_D_windows, window_consistency
+from bbdyn.ensemble import ensemble
 from bbdyn.params import Params
+from bbdyn.runs import EVENT_COST_S, EVENTS_PER_PERIOD, check_n, check_run, check_size
 from bbdyn.scans.progress import rough_duration
+from bbdyn.scans.runner import local_workers, run_scan
 
 __all__ = [
     "MAX_POINTS",
@@ -122,8 +127,6 @@ def frequency_grid(f_start: float, f_stop: float, f_step: float) -> np.ndarray:
 
 def _check_point_arguments(params: Params, n, t, transient, n_samples) -> int:
     """Validate the arguments of ``diffusion_point`` at ``params``; returns ``n`` as an int."""
-    from bbdyn.ensemble import check_n, check_run
-
     n = check_n(n)
     if int(n_samples) != n_samples or n_samples < 11:
         raise ValueError(f"n_samples must be an integer >= 11, got {n_samples}")
@@ -133,11 +136,9 @@ def _check_point_arguments(params: Params, n, t, transient, n_samples) -> int:
 
 def cpu_estimate(f_sum: float, n: int, t: float) -> float:
     """CPU time (s) of ``n`` particles for ``t`` s at frequencies summing to ``f_sum`` (Hz),
-    from the ensemble's conservative event model (``bbdyn.ensemble.EVENTS_PER_PERIOD``
+    from the ensemble's conservative event model (``bbdyn.runs.EVENTS_PER_PERIOD``
     events per period at ``EVENT_COST_S`` each): an upper bound for refusing oversized
     scans, tens of times the CPU time of typical scans (``scan_cpu_forecast`` forecasts it)."""
-    from bbdyn.ensemble import EVENT_COST_S, EVENTS_PER_PERIOD
-
     return float(f_sum) * float(n) * float(t) * EVENTS_PER_PERIOD * EVENT_COST_S
 
 
@@ -179,8 +180,6 @@ def scan_cpu_forecast(
     ``cpu_s``.  A forecast, not a bound: within a factor of 2 of the measured CPU time for
     the scenes' quick and full scans (tests/test_cost_forecast.py).
     """
-    from bbdyn.scans.runner import local_workers
-
     procs = local_workers(workers, int(n_points))
     points = float(f_sum) * float(n) * float(t) * float(period_cpu_s)
     return {
@@ -203,13 +202,11 @@ def check_scan_size(
     ``[f_lo, f_hi]`` (Hz), estimate its CPU time and disk, and refuse it beyond the limits,
     before anything is allocated or written.
 
-    CPU time follows the ensemble's conservative event model (``bbdyn.ensemble.check_size``;
+    CPU time follows the ensemble's conservative event model (``bbdyn.runs.check_size``;
     real runs are faster), disk ``point_bytes``.  Limits: ``MAX_POINTS`` frequencies, and
     every point within ``check_size``'s limits (checked at ``f_hi``, the costliest).
     Returns ``{"cpu_s", "bytes"}``; raises ValueError with the estimate and what to do.
     """
-    from bbdyn.ensemble import check_size
-
     for f in (f_lo, f_hi):
         n = _check_point_arguments(Params(f=f), n, t, transient, n_samples)
     t = float(t)
@@ -296,8 +293,6 @@ def diffusion_point(
     >>> out["trapped"], out["D"], out["D_se"]
     (1, 0.0, 0.0)
     """
-    from bbdyn.ensemble import ensemble
-
     given = (("A", A), ("alpha", alpha), ("beta", beta), ("R", R), ("d", d))
     changes = {k: v for k, v in given if v is not None}
     params = Params(f=f, **changes)
@@ -348,13 +343,6 @@ def diffusion_fit(times, disp, boot_seed, n_boot: int = 1000) -> dict[str, float
     ``boot_seed``); ``D_windows, D_windows_se, D_windows_p, D_converged``: the window
     consistency check (module docstring).
     """
-    from bbdyn.diffusion import (
-        einstein_D,
-        einstein_D_bootstrap,
-        einstein_D_windows,
-        window_consistency,
-    )
-
     out: dict[str, float | np.ndarray] = {}
     out["D"], out["D_se"] = (float(v) for v in einstein_D(times, disp, D_WINDOW))
     se, lo, hi = einstein_D_bootstrap(times, disp, D_WINDOW, n_boot, boot_seed)
@@ -407,8 +395,6 @@ def average_rounding(events, scale):
     value, ``scale`` (``energy_scale`` for E, E_x itself); per particle, or per scan point
     with ``events`` per particle.
     """
-    from bbdyn.core.tolerances import OBS_INTEGRAL_REL_TOL, SUM_ROUND_PER_TERM
-
     per_term = OBS_INTEGRAL_REL_TOL + SUM_ROUND_PER_TERM
     return (events + 1.0) * per_term * np.abs(scale)
 
@@ -459,8 +445,6 @@ def frequency_scan(
     before anything is written.  Every finished frequency is stored in ``out_dir`` at once;
     run again with the same arguments to resume.  Returns the ``ScanResult`` (docs/scans.md).
     """
-    from bbdyn.scans.runner import run_scan
-
     freqs = [float(f) for f in frequencies]
     changes = _model_changes(model or {})
     if freqs:  # run_scan names an empty or non-finite list

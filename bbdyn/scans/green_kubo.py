@@ -22,7 +22,14 @@ import math
 
 import numpy as np
 
+from bbdyn.approx import analytic_diffusion, energy_ratio, green_kubo
+from bbdyn.approx.random_walk import AnalyticDiffusion
+from bbdyn.ensemble import ensemble
 from bbdyn.params import Params
+from bbdyn.results import make_meta
+from bbdyn.runs import check_n, check_run
+from bbdyn.scans.runner import run_scan
+from bbdyn.schema import standard_key
 
 __all__ = ["gk_run", "gk_numbers", "gk_point", "gk_scan"]
 
@@ -87,10 +94,6 @@ def gk_run(
     >>> gk = gk_run(Params(f=85.2), n=50, t=20.0, nmax=4)   # doctest: +SKIP
     >>> gk.D_n, gk.meta["D"], gk.meta["r"]                  # doctest: +SKIP
     """
-    from bbdyn.approx import analytic_diffusion, energy_ratio, green_kubo
-    from bbdyn.ensemble import ensemble
-    from bbdyn.results import make_meta
-
     if not isinstance(params, Params):
         raise ValueError(f"params must be a bbdyn.Params, got {type(params).__name__}")
     t = float(t)
@@ -119,8 +122,6 @@ def gk_run(
     summary = res.summary()
     ratio = energy_ratio(res["E_x"], res["E_y"])
     if math.isnan(ratio.r):  # E_x = E_y = 0: nothing moves (e.g. A = 0), r is 0 / 0
-        from bbdyn.approx.random_walk import AnalyticDiffusion
-
         analytic = AnalyticDiffusion(math.nan, math.nan, math.nan, NO_MOTION)
     else:
         analytic = analytic_diffusion(params, ratio.r, ratio.r_err)
@@ -164,8 +165,6 @@ def gk_numbers(gk) -> dict:
     ``jump_rate`` (1/s); ``E``, ``E_x``, ``E_y``; ``D_n``, ``D_n_se`` (arrays, n =
     0..nmax).  Undefined values are NaN (``tau`` is inf when nothing jumped).
     """
-    from bbdyn.schema import standard_key
-
     m = gk.meta
     out = {k: float(m[k]) for k in ("tau", "tau_err", "D_rw", "D_rw_err")}
     for k in ("D_a", "D_a_err", "r", "r_err", "D", "D_err", "E", "E_x", "E_y", "jumps_per_s"):
@@ -230,9 +229,6 @@ def gk_scan(
     anything is written.  Returns the ``ScanResult``: ``f`` and every output
     of ``gk_numbers`` stacked over frequencies (``D_n`` has shape (n_f, nmax + 1)).
     """
-    from bbdyn.ensemble import check_n, check_run
-    from bbdyn.scans.runner import run_scan
-
     freqs = [float(f) for f in frequencies]
     for f in freqs:  # before anything is written: a refused scan leaves no folder
         check_run(Params(f=f), t, float(t) / 5)

@@ -48,6 +48,8 @@ from typing import Any, TextIO
 
 import numpy as np
 
+from bbdyn import __version__
+from bbdyn.params import Params
 from bbdyn.results import (
     DamagedResultError,
     Result,
@@ -57,7 +59,7 @@ from bbdyn.results import (
     write_json_atomic,
 )
 from bbdyn.scans.progress import Progress, progress_stream
-from bbdyn.schema import standard_key
+from bbdyn.schema import DIMENSIONS, SE, describe, is_quantity, standard_key, unit, units_of
 
 __all__ = [
     "KEY_SCALE",
@@ -369,8 +371,6 @@ def _run_point(compute: Callable, value: float, seed: int) -> tuple[dict, dict]:
     the worker's own clocks: ``cpu_s`` is its process CPU time (``time.process_time``),
     which does not grow when other processes share the core, ``wall_s`` wall-clock time."""
     import numba
-
-    from bbdyn import __version__
 
     # One thread per point: a point's numbers never depend on the thread count,
     # and the processes (not threads) share the cores.
@@ -745,8 +745,6 @@ class ScanResult(Result):
         """
         import matplotlib.pyplot as plt
 
-        from bbdyn.schema import SE
-
         scalars = self.scalars()
         if key is None:
             if not scalars:
@@ -772,7 +770,6 @@ class ScanResult(Result):
         defaults with the compute function's fixed model arguments; None for other scans."""
         if self.name != "f":
             return None
-        from bbdyn.params import Params
 
         defaults = {k: v for k, v in Params(f=1.0).to_dict().items() if k != "f"}
         kwargs = self.meta["compute"]["kwargs"]
@@ -800,8 +797,6 @@ class ScanResult(Result):
 
         Needs xarray (``pip install 'bbdyn[io]'``).
         """
-        from bbdyn.schema import DIMENSIONS, units_of
-
         xr = _optional("xarray")
         name = self.name
         arrays = {k: a for k, a in self.arrays.items() if k != name} | self.point_times()
@@ -857,8 +852,6 @@ class ScanResult(Result):
 
         Needs pandas (``pip install 'bbdyn[io]'``).
         """
-        from bbdyn.schema import units_of
-
         pd = _optional("pandas")
         columns = {k: self.arrays[k] for k in self.scalars()} | self.point_times()
         frame = pd.DataFrame(columns, index=pd.Index(self.values, name=self.name))
@@ -880,8 +873,6 @@ def _optional(module: str):
 
 def _label(key: str) -> str:
     """Axis label ``key (unit)``, or ``key`` for a dimensionless key or one outside the schema."""
-    from bbdyn.schema import is_quantity, unit
-
     u = unit(key) if is_quantity(key) else ""
     return f"{key} ({u})" if u else key
 
@@ -889,8 +880,6 @@ def _label(key: str) -> str:
 def _variable_attrs(key: str) -> dict[str, str]:
     """``units`` (CF: "1" if dimensionless) and ``long_name`` of a variable from the schema;
     none for a key outside it."""
-    from bbdyn.schema import describe, is_quantity, unit
-
     return {"units": unit(key) or "1", "long_name": describe(key)} if is_quantity(key) else {}
 
 

@@ -19,6 +19,7 @@ import time
 
 import numpy as np
 
+from bbdyn.ensemble import ensemble
 from bbdyn.params import Params
 from bbdyn.results import Result, make_meta
 
@@ -35,8 +36,6 @@ def loglog_slope(x, y) -> float:
 
 def _one_run(params: Params, n: int, t: float, seed: int) -> tuple[float, float, float]:
     """D, its standard error (mm^2/s) and the CPU time (s) of one ensemble run."""
-    from bbdyn.ensemble import ensemble
-
     start = time.process_time()
     res = ensemble(params, n=n, t=t, seed=seed, threads=1, observables=("displacement",))
     cpu = time.process_time() - start

@@ -33,6 +33,9 @@ import subprocess
 import time
 from pathlib import Path
 
+from bbdyn import __version__
+from bbdyn.results import load_result, result_paths
+
 #: scene id -> module under bbdyn.scenes
 SCENES = {
     "S1": "s1_tongues",
@@ -137,8 +140,6 @@ def provenance(
 ) -> dict:
     """Where a scene output came from: bbdyn version, ``source`` (``source_state``),
     scene id, setting name and values, seed, run time ``run_s`` (s wall) and the UTC time."""
-    from bbdyn import __version__
-
     return {
         "bbdyn_version": __version__,
         **source,
@@ -154,8 +155,6 @@ def provenance(
 def save_figure(fig, png: str | Path, prov: dict) -> Path:
     """Save ``fig`` as ``png`` (150 dpi) with ``prov`` as JSON in its text metadata; close it."""
     import matplotlib.pyplot as plt
-
-    from bbdyn import __version__
 
     png = Path(png)
     png.parent.mkdir(parents=True, exist_ok=True)
@@ -231,8 +230,6 @@ def redraw_scene(json_path: str | Path) -> Path:
     import matplotlib
 
     matplotlib.use("Agg")
-
-    from bbdyn.results import load_result, result_paths
 
     _, json_path = result_paths(json_path)
     with open(json_path) as fh:

@@ -11,7 +11,12 @@ import time
 
 import numpy as np
 
+from bbdyn import Params
+from bbdyn.classify import REGIMES, classify
 from bbdyn.results import Result, make_meta
+from bbdyn.scans.cache import scene_folder
+from bbdyn.scans.frequency import CLASSIFY_PERIOD_CPU_S, scan_cpu_forecast
+from bbdyn.scans.runner import run_scan
 
 TITLE = "Regime map: regime, attractors and basin fractions against f"
 #: Regime labels in the order of the stored codes.
@@ -36,9 +41,6 @@ FULL = {"f_min": 49.8, "f_max": 95.0, "n_f": 227, "n": 1000, "t": 50.0, "workers
 
 def regime_point(f: float, seed_sequence, *, n: int, t: float) -> dict:
     """Classification at ``f`` (Hz) as numbers for the scan (top-level: workers import it)."""
-    from bbdyn import Params
-    from bbdyn.classify import classify
-
     seed = int(seed_sequence.generate_state(1)[0])
     s = classify(Params(f=f), t=t, n=n, seed=seed, threads=1).summary
     fractions = np.zeros(MAX_ATTRACTORS)
@@ -70,8 +72,6 @@ class SceneB1Result(Result):
 def cost(settings: dict) -> dict[str, float]:
     """Forecast of the CPU time (s) of the classification scan of ``settings``:
     ``bbdyn.scans.frequency.scan_cpu_forecast`` at a classification's cost per period."""
-    from bbdyn.scans.frequency import CLASSIFY_PERIOD_CPU_S, scan_cpu_forecast
-
     f_sum = 0.5 * (settings["f_min"] + settings["f_max"]) * settings["n_f"]
     size = (f_sum, settings["n_f"], settings["n"], settings["t"])
     return scan_cpu_forecast(*size, period_cpu_s=CLASSIFY_PERIOD_CPU_S, workers=settings["workers"])
@@ -83,9 +83,6 @@ def compute(settings: dict, seed: int = 0, out_dir=None, progress=False) -> Scen
     The scan is kept (resumable) in ``bbdyn.scans.cache.scene_folder("regime", ...)`` under
     ``out_dir``, or in ``settings["scan_dir"]``.
     """
-    from bbdyn.scans.cache import scene_folder
-    from bbdyn.scans.runner import run_scan
-
     start = time.perf_counter()
     freqs = np.round(np.linspace(settings["f_min"], settings["f_max"], settings["n_f"]), 6)
     point = functools.partial(regime_point, n=int(settings["n"]), t=float(settings["t"]))
@@ -136,8 +133,6 @@ def draw_regime_strip(ax, result: Result, **legend_kw) -> None:
     legend (placed right of ``ax`` unless ``legend_kw`` says otherwise) names and explains
     the regimes drawn."""
     from matplotlib.patches import Patch
-
-    from bbdyn.classify import REGIMES
 
     colors = _regime_colors()
     bands = regime_bands(result)

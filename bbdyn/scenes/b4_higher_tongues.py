@@ -2,12 +2,12 @@
 
 Left: the (Gamma, alpha) plane with the closed-form k/1 tongues of scene S1 (shaded),
 the successive period doublings of each k/1 orbit (curves ``Gamma_n(alpha)``, by
-continuation of the exact map, ``bbdyn.continuation.cascade``) and the stable
+continuation of the exact map, ``bbdyn.flat.continuation.cascade``) and the stable
 intervals of k/m orbits (from the saddle-node to the first doubling, found by
-continuation of orbits located by Newton, ``bbdyn.continuation.km_regions``).
+continuation of orbits located by Newton, ``bbdyn.flat.continuation.km_regions``).
 Right: a bifurcation diagram at one alpha (impact phases against Gamma) from
-direct iteration of the exact map (``bbdyn.continuation.bifurcation_diagram``), with the doublings
-found by continuation as dashed lines.  Everything is dimensionless (the map
+direct iteration of the exact map (``bbdyn.flat.continuation.bifurcation_diagram``),
+with the doublings found by continuation as dashed lines.  Everything is dimensionless (the map
 depends on Gamma and alpha only).
 """
 
@@ -17,10 +17,10 @@ import time
 
 import numpy as np
 
-from bbdyn.continuation import bifurcation_diagram, cascade, km_regions
+from bbdyn.flat.continuation import bifurcation_diagram, cascade, km_regions
+from bbdyn.flat.tongues import tongue_gamma_hi, tongue_gamma_lo
 from bbdyn.results import Result, make_meta
 from bbdyn.scenes import figure_axes
-from bbdyn.tongues import tongue_gamma_hi, tongue_gamma_lo
 
 TITLE = "Higher-order tongues k/m and period-doubling cascades of the k/1 orbits (exact map)"
 QUICK = {

@@ -12,7 +12,7 @@ ensemble of particles, the largest exponent per second with one standard error o
 particles.  Where a particle sticks its exponent is ``-inf``; the figure then shows the
 conditional exponent (growth between sticks) with an open marker, and the fraction of
 particles that stuck.  The shaded bands are the frequencies of the flat ball's stable
-k/1 orbits (closed-form Arnold tongues, ``bbdyn.tongues``), where the exponent must be
+k/1 orbits (closed-form Arnold tongues, ``bbdyn.flat.tongues``), where the exponent must be
 negative.
 """
 
@@ -23,12 +23,12 @@ import time
 
 import numpy as np
 
+from bbdyn.flat.tongues import frequency_at_gamma, tongue_gamma_hi, tongue_gamma_lo
 from bbdyn.lyapunov import billiard_lyapunov, flat_lyapunov, top_orbit_exponent
 from bbdyn.params import Params
 from bbdyn.results import Result, make_meta
 from bbdyn.scenes import figure_axes
 from bbdyn.scenes.b1_regime_map import LABELS, regime_bands
-from bbdyn.tongues import frequency_at_gamma, tongue_gamma_hi, tongue_gamma_lo
 
 TITLE = (
     "Largest Lyapunov exponent against f (S3 range): billiard per attractor with regime "

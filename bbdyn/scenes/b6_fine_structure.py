@@ -31,6 +31,8 @@ from bbdyn.params import Params
 from bbdyn.results import Result, make_meta
 from bbdyn.scans import fine_structure as fs
 from bbdyn.scans.cache import scene_folder
+from bbdyn.scans.frequency import check_scan_size, diffusion_point, scan_cpu_forecast
+from bbdyn.scans.runner import run_scan
 
 TITLE = "Fine structure of D(f): nested grids around chosen frequencies, scaling of increments"
 _STEPS = (0.2, 0.05, 0.01, 0.002)
@@ -82,8 +84,6 @@ def grid_points(settings: dict) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
 def cost(settings: dict) -> dict[str, float]:
     """Forecast of the CPU time (s) of the scan of every grid point of ``settings``:
     ``bbdyn.scans.frequency.scan_cpu_forecast``."""
-    from bbdyn.scans.frequency import scan_cpu_forecast
-
     values = np.unique(grid_points(settings)[0])
     return scan_cpu_forecast(values.sum(), values.size, settings["n"], settings["t"],
                              workers=settings.get("workers"))  # fmt: skip
@@ -91,9 +91,6 @@ def cost(settings: dict) -> dict[str, float]:
 
 def run_points(settings: dict, seed: int, out_dir=None, progress=False):
     """The scan of all grid points of ``settings`` (computed, resumed or loaded)."""
-    from bbdyn.scans.frequency import check_scan_size, diffusion_point
-    from bbdyn.scans.runner import run_scan
-
     f, _, _ = grid_points(settings)
     values = np.unique(f)
     n, t = int(settings["n"]), float(settings["t"])

@@ -11,11 +11,11 @@ import math
 
 import numpy as np
 
+from bbdyn.flat.tongues import tongue_intervals
 from bbdyn.params import Params
 from bbdyn.results import Result, make_meta
 from bbdyn.scans.cache import diffusion_scan
 from bbdyn.schema import standard_key
-from bbdyn.tongues import tongue_intervals
 
 __all__ = ["D_ZERO", "FULL", "QUICK", "SCENE_KEYS", "FrequencyScanScene", "scan_scene"]
 

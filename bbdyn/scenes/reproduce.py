@@ -14,6 +14,8 @@ import json
 from collections.abc import Callable, Iterable
 from pathlib import Path
 
+from bbdyn import __version__
+from bbdyn.scans.progress import rough_duration
 from bbdyn.scenes import (
     SCENES,
     SOURCE_ROOT,
@@ -78,8 +80,6 @@ def cost_lines(ids: Iterable[str], setting: str, root: str | Path = SOURCE_ROOT)
     and what compiling them adds when numba's cache lacks them
     (``bbdyn.scans.frequency.scan_cpu_forecast``), and the wall time of the same scene at
     the same settings in ``<root>/docs/figures``, if any."""
-    from bbdyn.scans.progress import rough_duration
-
     figures = Path(root) / "docs" / "figures"
     measured = {}
     if figures.is_dir():
@@ -265,8 +265,6 @@ def settings_text(settings: dict | str) -> str:
 
 def write_index(folder: str | Path) -> Path:
     """Write ``<folder>/index.md`` listing every scene saved in ``folder``; return its path."""
-    from bbdyn import __version__
-
     folder = Path(folder)
     lines = [
         "# bbdyn reproduce",

@@ -16,6 +16,7 @@ import time
 
 import numpy as np
 
+from bbdyn import Params
 from bbdyn.results import Result, make_meta
 from bbdyn.scenes import figure_axes
 from bbdyn.scenes.s9_random_walk import scan_points
@@ -42,8 +43,6 @@ class SceneS10Result(Result):
 def compute(settings: dict, seed: int = 0, out_dir=None, progress=False) -> SceneS10Result:
     """Scan ``settings`` (grid in Hz, ``n``, ``t`` s, ``nmax``, ``orders``); the scan is kept
     in ``bbdyn.scans.cache.scene_folder("gk", settings, seed, out_dir)``, so a rerun resumes it."""
-    from bbdyn import Params
-
     start = time.perf_counter()
     nmax = int(settings["nmax"])
     orders = np.array(sorted(set(settings["orders"])), dtype=int)

@@ -2,7 +2,7 @@
 
 Closed-form tongues (docs/model.md, derived in ``derivations/flat_tongues.py``) with,
 on top, the edges found numerically from the multipliers of the exact map's
-k/1 orbits (``bbdyn.tongues.gamma_lo_numeric`` / ``gamma_hi_numeric``).  The
+k/1 orbits (``bbdyn.flat.tongues.gamma_lo_numeric`` / ``gamma_hi_numeric``).  The
 dimensionless tongues do not depend on A or g.
 """
 
@@ -12,9 +12,9 @@ import time
 
 import numpy as np
 
+from bbdyn.flat.tongues import gamma_hi_numeric, gamma_lo_numeric, tongue_gamma_hi, tongue_gamma_lo
 from bbdyn.results import Result, make_meta
 from bbdyn.scenes import figure_axes
-from bbdyn.tongues import gamma_hi_numeric, gamma_lo_numeric, tongue_gamma_hi, tongue_gamma_lo
 
 TITLE = "Arnold tongues k/1 of the flat ball: closed form and exact-map multipliers"
 QUICK = {"kmax": 3, "n_curve": 201, "n_numeric": 6}

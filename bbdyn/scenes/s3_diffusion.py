@@ -12,7 +12,9 @@ from __future__ import annotations
 import numpy as np
 
 from bbdyn.scans.cache import grid_cpu_forecast
+from bbdyn.scans.frequency import P_FLAG
 from bbdyn.scenes import figure_axes
+from bbdyn.scenes.b1_regime_map import draw_regime_strip
 from bbdyn.scenes.frequency_scene import FULL, QUICK, FrequencyScanScene, scan_scene
 
 TITLE = "Diffusion coefficient D(f) with standard errors and the k/1 tongues"
@@ -54,13 +56,9 @@ def draw(result: FrequencyScanScene, ax=None, regimes=None):
     where D and D_err are zero to rounding (nothing moves: D is exact)."""
     import matplotlib.pyplot as plt
 
-    from bbdyn.scans.frequency import P_FLAG
-
     if regimes is not None and ax is None:
         fig, (ax, ax_reg) = plt.subplots(2, 1, figsize=(11, 4.8), sharex=True,
                                          height_ratios=(1, 0.07), layout="constrained")  # fmt: skip
-        from bbdyn.scenes.b1_regime_map import draw_regime_strip
-
         draw_regime_strip(ax_reg, regimes, loc="lower left", bbox_to_anchor=(1.01, -0.5))
     else:
         fig, ax = figure_axes(ax, figsize=(11, 4.4), layout="constrained")

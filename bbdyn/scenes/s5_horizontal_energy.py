@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from bbdyn.scans.frequency import P_FLAG
 from bbdyn.scenes import figure_axes
 from bbdyn.scenes.frequency_scene import FULL, QUICK, FrequencyScanScene, scan_scene
 
@@ -30,8 +31,6 @@ def compute(settings: dict, seed: int = 0, out_dir=None, progress=False) -> Freq
 
 def draw(result: FrequencyScanScene, ax=None):
     """E_x(f) with error bars, non-stationary energies marked; returns the Figure."""
-    from bbdyn.scans.frequency import P_FLAG
-
     fig, ax = figure_axes(ax, figsize=(11, 4.4), layout="constrained")
     result.mark_tongues(ax)
     result.plot(ax, key="E_x")

@@ -12,7 +12,7 @@ from __future__ import annotations
 import numpy as np
 
 from bbdyn.params import Params
-from bbdyn.poincare import PoincareResult, poincare
+from bbdyn.poincare import TINY_HOP_PERIODS, PoincareResult, poincare
 
 TITLE = "Phase space (s, vx+) at collisions at 58 Hz"
 QUICK = {"f": 58.0, "n": 200, "transient": 10.0, "particles": 200, "n_events": 150}
@@ -94,8 +94,6 @@ def _title(result: PoincareResult) -> str:
 def _draw_flight_times(result: PoincareResult, ax) -> None:
     """Flight time from each collision to the next (driving periods, log) against the drive
     phase of the collision (rad)."""
-    from bbdyn.poincare import TINY_HOP_PERIODS
-
     impacts, tiny = result.impacts(), result.tiny_hops()
     flight, s = result["flight"], np.mod(result["phase"], 2 * np.pi)
     other = impacts & ~tiny & (flight > 0)

@@ -18,7 +18,10 @@ import time
 
 import numpy as np
 
+from bbdyn import Params
 from bbdyn.results import Result, make_meta
+from bbdyn.scans.cache import gk_scene_scan, grid_cpu_forecast
+from bbdyn.schema import standard_key
 
 TITLE = "Random walk: Einstein D, D_rw (tau from simulation) and D_a (measured r) against f"
 QUICK = {"f_start": 66.0, "f_stop": 94.0, "f_step": 2.0, "n": 100, "t": 40.0}
@@ -41,9 +44,6 @@ class SceneS9Result(Result):
 
 def scan_points(settings: dict, seed: int, out_dir, *, keys, progress=False):
     """The ``keys`` outputs of ``gk_scene_scan`` (computed or resumed), sorted by f."""
-    from bbdyn.scans.cache import gk_scene_scan
-    from bbdyn.schema import standard_key
-
     scan = gk_scene_scan(settings, seed, out_dir, progress)
     order = np.argsort(scan.values)
     arrays = {"f": scan.values[order]}
@@ -55,8 +55,6 @@ def scan_points(settings: dict, seed: int, out_dir, *, keys, progress=False):
 def cost(settings: dict) -> dict[str, float]:
     """Forecast of the CPU time (s) of the scan of ``settings`` (shared with S10):
     ``bbdyn.scans.frequency.scan_cpu_forecast``."""
-    from bbdyn.scans.cache import grid_cpu_forecast
-
     return grid_cpu_forecast(settings)
 
 
@@ -64,8 +62,6 @@ def compute(settings: dict, seed: int = 0, out_dir=None, progress=False) -> Scen
     """Scan the frequencies of ``settings`` (``f_start``, ``f_stop``, ``f_step`` in Hz, ``n``
     particles, ``t`` s) and collect D, D_rw, D_a, r; the scan is kept in
     ``bbdyn.scans.cache.scene_folder("gk", settings, seed, out_dir)``, so a rerun resumes it."""
-    from bbdyn import Params
-
     start = time.perf_counter()
     arrays, scan_meta = scan_points(settings, seed, out_dir, keys=KEYS, progress=progress)
     f = arrays["f"]

@@ -137,7 +137,7 @@ def regime_counts(b1: dict, lo: float, hi: float) -> dict:
 def setup(s2_meta: dict, s1_meta: dict) -> dict:
     """P1, P5 and the slips: closed forms against the paper's numbers."""
     from bbdyn import Params
-    from bbdyn.tongues import frequency_at_gamma, tongue_gamma_hi, tongue_gamma_lo
+    from bbdyn.flat.tongues import frequency_at_gamma, tongue_gamma_hi, tongue_gamma_lo
 
     p = Params(f=PAPER["f0"])  # A, g, alpha, R, d: the defaults (f does not enter)
     tongues = [

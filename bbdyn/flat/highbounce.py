@@ -12,7 +12,7 @@ Its Jacobian ``[[1, 1], [2 (1+alpha) Gamma sin theta', alpha + 2 (1+alpha) Gamma
 has determinant ``alpha``; the exact map's is ``alpha vrel+ / (-vrel-)`` (``alpha^2`` on
 a k/1 orbit), because the flux through a *moving* plate is lost here.
 
-Error against the exact map (``bbdyn.tongues``), all in closed form:
+Error against the exact map (``bbdyn.flat.tongues``), all in closed form:
 
 * the k/1 orbits are the same (``V = 2 pi k``, ``cos theta* = -pi k (1-alpha) / ((1+alpha)
   Gamma)``), so the lower tongue edge and the impact phases of k/1 orbits are exact;
@@ -38,8 +38,8 @@ from bbdyn.core.flat import flat_flight
 from bbdyn.core.highbounce import hb_run, hb_step
 from bbdyn.core.plate import plate_velocity
 from bbdyn.core.status import OK, STATUS_MESSAGES
+from bbdyn.flat.tongues import tongue_gamma_hi, tongue_gamma_lo
 from bbdyn.params import Params
-from bbdyn.tongues import tongue_gamma_hi, tongue_gamma_lo
 
 __all__ = [
     "flight_phase_error",

@@ -49,6 +49,7 @@ from bbdyn.core.flat_jacobian import flat_map_jacobian
 from bbdyn.core.plate import TWO_PI, sin_minus_x
 from bbdyn.core.status import IMPACT, NON_FINITE, OK, STATUS_MESSAGES
 from bbdyn.core.tolerances import ORBIT_NEWTON_TOL
+from bbdyn.flat.tongues import k1_cos_phase, tongue_gamma_hi, tongue_gamma_lo
 from bbdyn.params import Params
 from bbdyn.results import Result, make_meta
 
@@ -167,7 +168,7 @@ def orbit_chain(theta: float, V: float, gamma: float, k: int, m: int, alpha: flo
 
 
 def _scale(k: int, V: float) -> np.ndarray:
-    """Residual scales: 2 pi k (phase) and the launch speed V + 2 pi k (as bbdyn.tongues)."""
+    """Residual scales: 2 pi k (phase) and the launch speed V + 2 pi k (as bbdyn.flat.tongues)."""
     return np.array([TWO_PI * k, abs(V) + TWO_PI * k])
 
 
@@ -513,8 +514,6 @@ def feigenbaum_ratios(gammas) -> np.ndarray:
 
 def k1_start(k: int, alpha: float) -> Point:
     """A corrected point of the stable k/1 branch halfway up its tongue (closed-form guess)."""
-    from bbdyn.tongues import k1_cos_phase, tongue_gamma_hi, tongue_gamma_lo
-
     gamma = 0.5 * (tongue_gamma_lo(k, alpha) + tongue_gamma_hi(k, alpha))
     theta = TWO_PI - math.acos(k1_cos_phase(k, gamma, alpha))
     return _correct_at_gamma(theta, 2 * alpha * math.pi * k / (1 + alpha), gamma, k, 1, alpha)
@@ -696,8 +695,6 @@ def bifurcation_diagram(gammas, alpha: float, transient: int, record: int) -> np
     -------
     array, shape (len(gammas), record)
     """
-    from bbdyn.tongues import k1_cos_phase, tongue_gamma_hi, tongue_gamma_lo
-
     gammas = np.asarray(gammas, dtype=float)
     g0 = min(max(gammas[0], tongue_gamma_lo(1, alpha)), tongue_gamma_hi(1, alpha))
     theta = TWO_PI - np.arccos(k1_cos_phase(1, g0, alpha))

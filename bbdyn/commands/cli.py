@@ -21,6 +21,8 @@ import os
 import signal
 import sys
 
+from bbdyn import __version__
+from bbdyn.core.status import SimulationError
 from bbdyn.sources import refresh_kernel_caches
 
 #: subcommand name -> module under bbdyn.commands
@@ -61,8 +63,6 @@ def _see_help(prog: str) -> str:
 
 
 def build_parser() -> argparse.ArgumentParser:
-    from bbdyn import __version__
-
     parser = Parser(prog="bbdyn", description="Exact dynamics of the bouncing ball billiard.")
     parser.add_argument("--version", action="version", version=f"bbdyn {__version__}")
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
@@ -89,8 +89,6 @@ def _one_line(err: BaseException) -> str:
 
 def explain(err: BaseException, args) -> tuple[int, str]:
     """Exit status and message (at most three lines, no traceback) for an exception of a run."""
-    from bbdyn.core.status import SimulationError
-
     prog = "bbdyn" if args is None else f"bbdyn {args.command}"
     text = _one_line(err)
     if isinstance(err, ValueError | TypeError):
