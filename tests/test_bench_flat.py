@@ -8,7 +8,8 @@ import pytest
 from scipy.optimize import brentq
 
 from bbdyn import cli
-from bbdyn.core.flat import FlatArrays, FlatState, flat_flight, flat_flight_tol, flat_run
+from bbdyn.core.flat import FlatArrays, FlatState, flat_flight, flat_run
+from bbdyn.core.search import flat_flight_tol
 from bbdyn.core.status import IMPACT, OK
 from bbdyn.core.tolerances import EPS, ROOT_STEP_REL
 from bbdyn.reference.fixed_step import fixed_step_one_step, fixed_step_run

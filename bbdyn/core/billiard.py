@@ -9,7 +9,7 @@ relative to the floor (relative velocities keep tiny bounces accurate, see
 
 The ladder, one function per rung: ``flight_search`` (first contact; ``flight_gap`` is
 the gap at a time) -> ``collide`` (restitution, wedge rule, chattering) -> ``event_search``
-(a flight and its collision, or a release by ``flat.stick_release``).  The rungs take and
+(a flight and its collision, or a release by ``plate.stick_release``).  The rungs take and
 return the event state as an ``EventState`` and carry the sine and cosine of its phase and
 the arc root of its point as a ``Trig`` (computed once per event); ``billiard_event`` and
 ``billiard_flight`` compute the ``Trig`` themselves.
@@ -70,11 +70,16 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit
 
-from bbdyn.core.flat import flat_flight_tol, flat_gap_phase, stick_release
 from bbdyn.core.floor import arc_root, bounce, bounce_at, floor_drop
 from bbdyn.core.fmath import clamp, fmax2, fmin2
-from bbdyn.core.plate import advance_phase, sin_cos
-from bbdyn.core.search import cubic_safe_step, safe_step, time_above
+from bbdyn.core.plate import advance_phase, sin_cos, stick_release
+from bbdyn.core.search import (
+    cubic_safe_step,
+    flat_flight_tol,
+    flat_gap_phase,
+    safe_step,
+    time_above,
+)
 from bbdyn.core.status import (
     BAD_STATE,
     IMPACT,

@@ -3,7 +3,7 @@
 Three ways to find the next impact are compared against the mpmath reference
 ``bbdyn.reference.flat_mpmath.reference_impacts``:
 
-* ``exact``: bbdyn's first-contact search ``bbdyn.core.flat.flat_flight_tol``,
+* ``exact``: bbdyn's first-contact search ``bbdyn.core.search.flat_flight_tol``,
   at the default stopping tolerance ``ROOT_STEP_REL`` (that of ``flat_flight``)
   and at looser ones (``step_rel``: the contact time is then early by up to
   about ``step_rel`` times the flight);
@@ -43,8 +43,9 @@ from typing import Any
 import numpy as np
 from numba import njit
 
-from bbdyn.core.flat import FlatArrays, FlatState, flat_flight_tol, flat_run
+from bbdyn.core.flat import FlatArrays, FlatState, flat_run
 from bbdyn.core.plate import TWO_PI
+from bbdyn.core.search import flat_flight_tol
 from bbdyn.core.status import IMPACT, OK, STICK, raise_for_status
 from bbdyn.core.tolerances import EPS, ROOT_STEP_REL
 from bbdyn.params import Params
