@@ -90,6 +90,7 @@ from bbdyn.core.status import (
     STICK,
 )
 from bbdyn.core.taylor import (
+    TilePoint,
     arc_remainder,
     gap_coefficients,
     gap_jerk_bound,
@@ -305,7 +306,7 @@ def tiny_hop(sn, cs, xi0, S0, vx, vyrel, Gp, kp):
     q2, q3 = g3 * (1.0 / 6.0), g4 * (1.0 / 24.0)
     t = tau0
     for _ in range(TAYLOR_NEWTON_MAX):
-        P, dG = gap_series(t, 0.0, Gp, g2, g3, g4, sn, cs, A, w, K)
+        P, dG = gap_series(t, 0.0, Gp, g2, g3, g4, sn, cs, K, kp)
         # Q = P / t, t^2 Q' = dG t - P: the step Q / Q' with one division
         t_old = t
         t2_dQ = dG * t - P
@@ -445,9 +446,8 @@ def flight_search(phase, sn, cs, xi0, S0, vx, vyrel, kp, cubic):
         if G <= 0.0 and tau > 0.0:
             return tau, k + k_base, xi, G_envp, n, OK
         if cubic and Gp < 0.0 and w * G < -TAYLOR_MAX_SPAN * Gp:
-            u, xi_c, Fp_c, solved = taylor_finish(
-                tau, G, Gp, G_envp, sn_t, cn_t, xi, S, vx, tc - tau, kp
-            )
+            point = TilePoint(xi, S, vx, tc - tau)
+            u, xi_c, Fp_c, solved = taylor_finish(tau, G, Gp, G_envp, sn_t, cn_t, point, kp)
             if solved:
                 return tau + u, k + k_base, xi_c, Fp_c, n + 1, OK
         # -G'' <= m + K s ahead of tau (on the tile, and for the envelope everywhere)

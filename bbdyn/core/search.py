@@ -20,7 +20,7 @@ from numba import njit
 from bbdyn.core.fmath import fmin2
 from bbdyn.core.plate import plate_dvel, plate_rise, sin_cos
 from bbdyn.core.status import BAD_STATE, OK, ROOT_NOT_CONVERGED
-from bbdyn.core.taylor import taylor_finish
+from bbdyn.core.taylor import TilePoint, taylor_finish
 from bbdyn.core.tolerances import EPS, FMA, ROOT_MAX_STEPS, ROOT_STEP_REL, TAYLOR_MAX_SPAN
 
 
@@ -178,7 +178,8 @@ def flat_flight_tol(phase, vrel, kp, step_rel):
             return tau, fmin2(Gp, 0.0), OK, n_evals
         if finish and Gp < 0.0 and w * G < -TAYLOR_MAX_SPAN * Gp:
             # the billiard's Taylor finish on the flat gap (xi = vx = 0: no arc terms)
-            u, _, Gp_c, solved = taylor_finish(tau, G, Gp, Gp, sn, cn, 0.0, kp.R, 0.0, math.inf, kp)
+            flat = TilePoint(0.0, kp.R, 0.0, math.inf)
+            u, _, Gp_c, solved = taylor_finish(tau, G, Gp, Gp, sn, cn, flat, kp)
             if solved:
                 return tau + u, fmin2(Gp_c, 0.0), OK, n_evals + 1
         m = g + aw2 * sn
