@@ -275,7 +275,7 @@ def particle_loop(carry, i, budget, kp, times, out, obs, th):
             break
         n_done += 1
         ev = EventState(periods, phase, tile, xi, vx, vyrel, kind)
-        nxt, status, nxt_trig = event_search(ev, trig, kp, True)
+        nxt, status, nxt_trig = event_search(ev, trig, kp)
         if status == STUCK_FOREVER:
             n_periods, n_phase = math.inf, 0.0
         elif status != OK:

@@ -98,7 +98,7 @@ def flight_profile(state, kp, n_events):
             tiny += n_steps == 0
             flights += 1
         nxt, status, trig = event_search(
-            EventState(periods, phase, tile, xi, vx, vyrel, kind), trig, kp, True
+            EventState(periods, phase, tile, xi, vx, vyrel, kind), trig, kp
         )
         periods, phase, tile, xi, vx, vyrel, kind = nxt
         if status != OK:
