@@ -38,8 +38,25 @@ def bench_rows(tree: str, target: str, quick: bool, folder: Path) -> list[dict]:
     cmd = [sys.executable, "-m", "bbdyn", "bench", target, "--json", "--out", str(png)]
     out = subprocess.run(cmd + (["--quick"] if quick else []), env=env, cwd=cache,
                          capture_output=True, text=True, check=True)  # fmt: skip
-    data, _ = json.JSONDecoder().raw_decode(out.stdout.lstrip())
-    return data["rows"] if isinstance(data, dict) else data  # older trees print a bare list
+    return parse_rows(out.stdout)
+
+
+def parse_rows(stdout: str) -> list[dict]:
+    """The rows in the stdout of ``bbdyn bench --json``: the JSON object with ``rows`` (a bare
+    list of rows from older trees), found after any progress lines printed before it."""
+    offset = 0
+    for line in stdout.splitlines(keepends=True):
+        if line[:1] in "{[":
+            try:
+                data, _ = json.JSONDecoder().raw_decode(stdout, offset)
+            except json.JSONDecodeError:
+                data = None
+            if isinstance(data, dict) and "rows" in data:
+                return data["rows"]
+            if isinstance(data, list) and all(isinstance(r, dict) for r in data):
+                return data
+        offset += len(line)
+    raise ValueError(f"no JSON rows in the bench output: {stdout[:200]!r}")
 
 
 def exact_rows(run: list[dict], speed: str) -> list[dict]:

@@ -1,5 +1,8 @@
 """benchmarks/bench_trees.py: medians per tree and their ratio from the rows of each run."""
 
+import json
+
+import pytest
 from derivation_loader import load_benchmark
 
 bt = load_benchmark("bench_trees")
@@ -30,3 +33,13 @@ def test_medians_ratio_and_errors_per_tree():
     table = bt.doc_table({"trees": ["old", "new"], "billiard": rows}, "billiard")
     assert "| one flight | 5 | 10 | 2.000 | 1e-17 / 2e-17 | 1e-13 / 1e-13 |" in table
     assert "| continuous | 2 | 3 | 1.500 | - / - | - / - |" in table
+
+
+def test_rows_found_after_progress_lines():
+    rows = run(4.0, 2.0, 1e-17)
+    obj = json.dumps({"version": "1", "target": "billiard", "rows": rows}, indent=2)
+    progress = "[1/3] one flight\n{not json} 40%\n"
+    assert bt.parse_rows(progress + obj + "\n") == rows
+    assert bt.parse_rows(json.dumps(rows, indent=1)) == rows  # an older tree's bare list
+    with pytest.raises(ValueError, match="no JSON rows"):
+        bt.parse_rows("progress only\n")

@@ -1,9 +1,10 @@
 """Cubic safe steps of the billiard's first-contact search (issue 12) against the quadratic rule.
 
-``flight_rule(..., cubic=False)`` (``tests/flight_rules.py``) is the previous search
-(global curvature bound M); the kernel now uses ``cubic=True``.  Both must find the same
-contact (the first one: no step may pass it), at the same time within the stated error, checked
-against the mpmath reference; in non-chaotic runs the event sequences coincide.
+``flight_rule(..., cubic=False)`` (``quadratic_flight``, ``tests/flight_rules.py``) is the
+previous search (global curvature bound M); the kernel uses the cubic rule (``cubic=True``).
+Both must find the same contact (the first one: no step may pass it), at the same time within
+the stated error, checked against the mpmath reference; in non-chaotic runs the event
+sequences coincide.
 """
 
 import numpy as np

@@ -18,12 +18,10 @@ from bbdyn.core.flat import (
     FlatArrays,
     FlatState,
     chatter_time,
-    flat_flight_tol,
-    flat_gap,
     flat_run,
 )
 from bbdyn.core.plate import sin_cos, sin_minus_x
-from bbdyn.core.search import safe_step
+from bbdyn.core.search import flat_flight_tol, flat_gap, safe_step
 from bbdyn.core.status import IMPACT, OK, STICK
 from bbdyn.core.tolerances import CHATTER_REL_TOL, EPS, ROOT_MAX_STEPS, ROOT_STEP_REL
 

@@ -25,7 +25,7 @@ from bbdyn.core.billiard import crossing_time, segment_gap_phase, tile_offset
 from bbdyn.core.floor import arc_root
 from bbdyn.core.plate import sin_cos
 from bbdyn.core.status import OK
-from bbdyn.core.taylor import drive_tail, tail_terms, taylor_finish
+from bbdyn.core.taylor import TilePoint, drive_tail, tail_terms, taylor_finish
 from bbdyn.core.tolerances import EPS
 
 FREQS = (50.2, 70.2, 85.2)
@@ -91,8 +91,8 @@ def _finish_before(starts, taus, ks, before, kp, out):
         if not (G > 0.0 and Gp < 0.0):
             out[j, 0] = -1.0
             continue
-        room = crossing_time(xi0, ks[j], vx, kp.d) - tau
-        u, xi_c, Fp_c, ok = taylor_finish(tau, G, Gp, Fp, sn_t, cn_t, xi, S, vx, room, kp)
+        point = TilePoint(xi, S, vx, crossing_time(xi0, ks[j], vx, kp.d) - tau)
+        u, xi_c, Fp_c, ok = taylor_finish(tau, G, Gp, Fp, sn_t, cn_t, point, kp)
         out[j, 0], out[j, 1], out[j, 2], out[j, 3] = 1.0 if ok else 0.0, tau + u, xi_c, Fp_c
 
 
@@ -129,7 +129,7 @@ def test_taylor_finish_refuses_what_it_cannot_prove():
 
     def attempt(tau, G, Gp, room=1.0, phase_sin=sn, phase_cos=cs, vx=0.5):
         return taylor_finish(
-            tau, G, Gp, Gp, phase_sin, phase_cos, 0.2, arc_root(0.2, kp), vx, room, kp
+            tau, G, Gp, Gp, phase_sin, phase_cos, TilePoint(0.2, arc_root(0.2, kp), vx, room), kp
         )[3]
 
     assert attempt(0.01, 1e-3, -20.0)  # a transversal landing well on the arc: solved

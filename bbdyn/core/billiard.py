@@ -9,7 +9,7 @@ relative to the floor (relative velocities keep tiny bounces accurate, see
 
 The ladder, one function per rung: ``flight_search`` (first contact; ``flight_gap`` is
 the gap at a time) -> ``collide`` (restitution, wedge rule, chattering) -> ``event_search``
-(a flight and its collision, or a release by ``flat.stick_release``).  The rungs take and
+(a flight and its collision, or a release by ``plate.stick_release``).  The rungs take and
 return the event state as an ``EventState`` and carry the sine and cosine of its phase and
 the arc root of its point as a ``Trig`` (computed once per event); ``billiard_event`` and
 ``billiard_flight`` compute the ``Trig`` themselves.
@@ -53,7 +53,7 @@ Guarantee: every step ends at a time before which a lower bound of ``G`` is
 positive, so the first contact is never skipped, whatever the number of tiles
 crossed; the search stops when the tile step is below ``ROOT_STEP_REL`` times
 the flight time (the contact time is then known to a few ulp), when rounding
-makes ``G <= 0``, or (cubic rule) when the *upper* Taylor bound is already
+makes ``G <= 0``, or when the *upper* Taylor bound is already
 negative ``ROOT_STEP_REL`` times the flight time after a tile step, still on the
 tile: with ``-G'' >= g + A w^2 sin - K u - R^2 vx^2 / c0^3`` (``-b''`` is
 largest at the wedges, ``S = c0``) the contact is then bracketed to that width
@@ -70,11 +70,15 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit
 
-from bbdyn.core.flat import flat_flight_tol, flat_gap_phase, stick_release
 from bbdyn.core.floor import arc_root, bounce, bounce_at, floor_drop
 from bbdyn.core.fmath import clamp, fmax2, fmin2
-from bbdyn.core.plate import advance_phase, sin_cos
-from bbdyn.core.search import cubic_safe_step, safe_step, time_above
+from bbdyn.core.plate import advance_phase, sin_cos, stick_release
+from bbdyn.core.search import (
+    cubic_safe_step,
+    flat_flight_tol,
+    flat_gap_phase,
+    time_above,
+)
 from bbdyn.core.status import (
     BAD_STATE,
     IMPACT,
@@ -85,6 +89,7 @@ from bbdyn.core.status import (
     STICK,
 )
 from bbdyn.core.taylor import (
+    TilePoint,
     arc_remainder,
     gap_coefficients,
     gap_jerk_bound,
@@ -242,13 +247,6 @@ def tangent_departure(sn, xi0, S0, vx, tc, kp):
 
 
 @njit(cache=True, fastmath=FMA, inline="always")
-def flight_step(G, Gp, m, M, K, cubic):
-    """Safe step (s) from a gap ``G >= 0`` with rate ``Gp``: cubic (``-G'' <= m + K s``,
-    ``cubic_safe_step``) or quadratic (``-G'' <= M``, ``safe_step``)."""
-    return cubic_safe_step(G, Gp, m, M, K) if cubic else safe_step(G, Gp, M)
-
-
-@njit(cache=True, fastmath=FMA, inline="always")
 def tiny_hop(sn, cs, xi0, S0, vx, vyrel, Gp, kp):
     """A short hop on one arc, solved from the Taylor polynomial of its gap (chattering).
 
@@ -300,7 +298,7 @@ def tiny_hop(sn, cs, xi0, S0, vx, vyrel, Gp, kp):
     q2, q3 = g3 * (1.0 / 6.0), g4 * (1.0 / 24.0)
     t = tau0
     for _ in range(TAYLOR_NEWTON_MAX):
-        P, dG = gap_series(t, 0.0, Gp, g2, g3, g4, sn, cs, A, w, K)
+        P, dG = gap_series(t, 0.0, Gp, g2, g3, g4, sn, cs, K, kp)
         # Q = P / t, t^2 Q' = dG t - P: the step Q / Q' with one division
         t_old = t
         t2_dQ = dG * t - P
@@ -319,7 +317,7 @@ def tiny_hop(sn, cs, xi0, S0, vx, vyrel, Gp, kp):
 
 
 @njit(cache=True, fastmath=FMA, forceinline=True)
-def flight_search(phase, sn, cs, xi0, S0, vx, vyrel, kp, cubic):
+def flight_search(phase, sn, cs, xi0, S0, vx, vyrel, kp):
     """First contact with the floor after an event (see the module docstring).
 
     Parameters
@@ -338,11 +336,6 @@ def flight_search(phase, sn, cs, xi0, S0, vx, vyrel, kp, cubic):
         ``arc_root(xi0)`` (mm): ``collide`` computed it for its bounce, and the event
         loop carries it to the next flight (a square root fewer per event).
     kp : KernelParams
-    cubic : bool
-        True: a tiny hop from its Taylor polynomial (``tiny_hop``), else cubic safe steps
-        with the local curvature bound (``billiard_flight``); False: quadratic steps
-        with the global bound M (the previous rule, kept for the tests and benchmarks
-        that compare the two).
 
     Returns
     -------
@@ -375,7 +368,7 @@ def flight_search(phase, sn, cs, xi0, S0, vx, vyrel, kp, cubic):
     Gp = vyrel + vx * xi0 * inv_S0  # = R V.n / S0
     if abs(Gp) <= DEPARTURE_REL_TOL * (abs(vyrel) + abs(vx * xi0) * inv_S0):
         Gp = 0.0  # tangent departure (alpha = 0): rounding of V.n = 0 must not count
-    elif cubic and Gp > 0.0 and abs(xi0) < half:
+    elif Gp > 0.0 and abs(xi0) < half:
         tau, xi, vyrel_minus, solved = tiny_hop(sn, cs, xi0, S0, vx, vyrel, Gp, kp)
         if solved:
             return tau, k_base, xi, vyrel_minus, 0, OK
@@ -439,18 +432,17 @@ def flight_search(phase, sn, cs, xi0, S0, vx, vyrel, kp, cubic):
         known = False
         if G <= 0.0 and tau > 0.0:
             return tau, k + k_base, xi, G_envp, n, OK
-        if cubic and Gp < 0.0 and w * G < -TAYLOR_MAX_SPAN * Gp:
-            u, xi_c, Fp_c, solved = taylor_finish(
-                tau, G, Gp, G_envp, sn_t, cn_t, xi, S, vx, tc - tau, kp
-            )
+        if Gp < 0.0 and w * G < -TAYLOR_MAX_SPAN * Gp:
+            point = TilePoint(xi, S, vx, tc - tau)
+            u, xi_c, Fp_c, solved = taylor_finish(tau, G, Gp, G_envp, sn_t, cn_t, point, kp)
             if solved:
                 return tau + u, k + k_base, xi_c, Fp_c, n + 1, OK
         # -G'' <= m + K s ahead of tau (on the tile, and for the envelope everywhere)
         m = g + aw2 * sn_t + m_pad
-        s_tile = flight_step(G, Gp, m, M, K, cubic)
+        s_tile = cubic_safe_step(G, Gp, m, M, K)
         if s_tile <= ROOT_STEP_REL * tau:
             return tau, k + k_base, xi, G_envp, n, OK
-        s_env = flight_step(G_env, G_envp, m, M, K, cubic) if G_env > 0.0 else 0.0
+        s_env = cubic_safe_step(G_env, G_envp, m, M, K) if G_env > 0.0 else 0.0
         room = tc - tau
         if s_env > fmin2(s_tile, room):
             tau += s_env
@@ -466,7 +458,7 @@ def flight_search(phase, sn, cs, xi0, S0, vx, vyrel, kp, cubic):
             s_up = s_tile + ROOT_STEP_REL * tau_next
             m_low = m - 2.0 * m_pad - arc_curv
             upper = G + s_up * (Gp - s_up * (0.5 * m_low - s_up * (K / 6.0)))
-            bracketed = cubic and upper < 0.0 and s_up < room  # contact on this tile
+            bracketed = upper < 0.0 and s_up < room  # contact on this tile
             if bracketed and L * s_tile**3 <= 6.0 * EPS * abs(G_envp):
                 Fp = G_envp - s_tile * (m - m_pad + 0.5 * s_tile * K * cn_t)
                 xi = clamp(xi0 + (vx * tau_next - k * d), -half, half)
@@ -477,13 +469,13 @@ def flight_search(phase, sn, cs, xi0, S0, vx, vyrel, kp, cubic):
 
 @njit(cache=True, fastmath=FMA)
 def billiard_flight(phase, xi0, vx, vyrel, kp):
-    """First contact with the floor after an event: ``flight_search`` (cubic steps) from the
+    """First contact with the floor after an event: ``flight_search`` from the
     phase and point alone (``sin_cos`` and ``arc_root`` here).
 
     Returns ``(tau, k, xi, vyrel_minus, n_steps, status)`` (see ``flight_search``).
     """
     sn, cs = sin_cos(phase)
-    return flight_search(phase, sn, cs, xi0, arc_root(xi0, kp), vx, vyrel, kp, True)
+    return flight_search(phase, sn, cs, xi0, arc_root(xi0, kp), vx, vyrel, kp)
 
 
 @njit(cache=True, fastmath=FMA, inline="always")
@@ -692,7 +684,7 @@ def event_trig(phase, xi, kp):
 
 
 @njit(cache=True, fastmath=FMA, forceinline=True)
-def event_search(state, trig, kp, cubic):
+def event_search(state, trig, kp):
     """Advance the billiard from one event to the next (docs/model.md §2).
 
     Parameters
@@ -705,8 +697,6 @@ def event_search(state, trig, kp, cubic):
         ``sin_cos(phase)`` and ``arc_root(xi)`` of ``state`` (computed once per event: the
         flight and ``collide`` use them, and so do the observables of the event loop).
     kp : KernelParams
-    cubic : bool
-        Step rule of the first-contact search (``flight_search``).
 
     Returns
     -------
@@ -727,7 +717,7 @@ def event_search(state, trig, kp, cubic):
         return released, OK, Trig(sn_r, cs_r, trig.S)
 
     tau, k, xi_c, vyrel_minus, _, status = flight_search(
-        phase, trig.sn, trig.cs, xi, trig.S, vx, vyrel, kp, cubic
+        phase, trig.sn, trig.cs, xi, trig.S, vx, vyrel, kp
     )
     if status != OK:
         return state, status, trig
@@ -749,7 +739,7 @@ def billiard_event(periods, phase, tile, xi, vx, vyrel, kind, kp):
     True
     """
     state = EventState(periods, phase, tile, xi, vx, vyrel, kind)
-    nxt, status, _ = event_search(state, event_trig(phase, xi, kp), kp, True)
+    nxt, status, _ = event_search(state, event_trig(phase, xi, kp), kp)
     return nxt.periods, nxt.phase, nxt.tile, nxt.xi, nxt.vx, nxt.vyrel, nxt.kind, status
 
 
@@ -776,7 +766,7 @@ def billiard_run(state, kp, n_events, out):
     ev = EventState(float(p), float(ph), float(tile), float(xi), float(vx), float(vyrel), int(kind))
     trig = event_trig(ev.phase, ev.xi, kp)
     for i in range(n_events):
-        ev, status, trig = event_search(ev, trig, kp, True)
+        ev, status, trig = event_search(ev, trig, kp)
         if status != OK:
             return ev, i, status
         if out is not None:

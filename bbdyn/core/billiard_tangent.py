@@ -99,9 +99,8 @@ from bbdyn.core.billiard import (
     snap_to_wedge,
     wedge_reflect,
 )
-from bbdyn.core.flat import stick_release
 from bbdyn.core.floor import arc_root, bounce
-from bbdyn.core.plate import TWO_PI, advance_phase, sin_cos
+from bbdyn.core.plate import TWO_PI, advance_phase, sin_cos, stick_release
 from bbdyn.core.status import IMPACT, NON_FINITE, OK, RELEASE, STICK, STUCK_FOREVER
 from bbdyn.core.tolerances import FMA
 

@@ -31,7 +31,7 @@ Conventions (docs/model.md §3 and §4):
   of ``L`` periods (features); the ensemble uses one block, and integrates its first
   part ``[p0, split]`` into a second row besides (``split_row``: the energy halves).
 
-The kernels take named tuples: the loop state ``bbdyn.ensemble.Carry``, the times
+The kernels take named tuples: the loop state ``bbdyn.runs.Carry``, the times
 ``RunTimes``, what to observe (``Observables``, ensemble) or the feature thresholds
 (``features.FeatureThresholds``), and the output arrays ``EnsembleOut`` (or
 ``features.FeatureOut``), one row per particle.
@@ -213,7 +213,7 @@ def particle_loop(carry, i, budget, kp, times, out, obs, th):
 
     Parameters
     ----------
-    carry : bbdyn.ensemble.Carry
+    carry : bbdyn.runs.Carry
         Loop states; row ``i`` is updated in place.
     i : int
         The particle.
@@ -275,7 +275,7 @@ def particle_loop(carry, i, budget, kp, times, out, obs, th):
             break
         n_done += 1
         ev = EventState(periods, phase, tile, xi, vx, vyrel, kind)
-        nxt, status, nxt_trig = event_search(ev, trig, kp, True)
+        nxt, status, nxt_trig = event_search(ev, trig, kp)
         if status == STUCK_FOREVER:
             n_periods, n_phase = math.inf, 0.0
         elif status != OK:
@@ -373,11 +373,11 @@ def run_ensemble(carry, budget, kp, times, obs, out):
     """Advance every running particle by at most ``budget`` events (prange over particles).
 
     Call it again while some ``out.status`` is ``RUNNING``: the outputs are filled in
-    place and do not depend on ``budget`` (see ``bbdyn.ensemble.Carry``).
+    place and do not depend on ``budget`` (see ``bbdyn.runs.Carry``).
 
     Parameters
     ----------
-    carry : bbdyn.ensemble.Carry
+    carry : bbdyn.runs.Carry
         Loop states (``bbdyn.ensemble.new_carry``; rings of ``FF_LAGS`` with fast-forward,
         ``pmax`` 0).
     budget : int
@@ -412,7 +412,7 @@ def run_features(carry, budget, kp, times, th, out):
 
     Parameters
     ----------
-    carry : bbdyn.ensemble.Carry
+    carry : bbdyn.runs.Carry
         Loop states (``bbdyn.ensemble.new_carry``; fast-forward rings of length 0, ``ring``
         of ``pmax``).
     budget : int

@@ -80,7 +80,7 @@ FF_LAM_NEAR = 1e-9
 class Particle(NamedTuple):
     """One particle's run as the fast-forward sees it (built once by ``particle_loop``)."""
 
-    carry: tuple  # bbdyn.ensemble.Carry: the loop state and the rings of releases
+    carry: tuple  # bbdyn.runs.Carry: the loop state and the rings of releases
     i: int  # the particle (its row of carry and out)
     kp: tuple  # KernelParams
     times: tuple  # RunTimes: the end and the sample times
@@ -152,7 +152,7 @@ def integrate_to_split(acc, ev, p0, split, kp, energy):
     rows = acc[1:]
     trig = event_trig(ev.phase, ev.xi, kp)
     while is_before(ev.periods, ev.phase, split, 0.0):
-        nxt, status, nxt_trig = event_search(ev, trig, kp, True)
+        nxt, status, nxt_trig = event_search(ev, trig, kp)
         if status != OK and status != STUCK_FOREVER:
             return
         hi_p, hi_ph = split, 0.0
@@ -291,7 +291,7 @@ def cycle_samples(particle, ev, trig, lag, n_cycle, dP, dl, K, k):
     for e in range(n_cycle):
         cycle[e, 0], cycle[e, 1], cycle[e, 2], cycle[e, 3] = state[:4]
         cycle[e, 4], cycle[e, 5] = state.vx, 1.0 if state.kind == STICK else 0.0
-        state, status, trig = event_search(state, trig, kp, True)
+        state, status, trig = event_search(state, trig, kp)
         if status != OK:
             return k, False
         releases += state.kind == RELEASE

@@ -1,6 +1,6 @@
 """Jacobian of the exact flat-ball impact map (docs/model.md §1), a numba kernel.
 
-Used by the periodic-orbit solver and the tongue edges in ``bbdyn.tongues``.
+Used by the periodic-orbit solver and the tongue edges in ``bbdyn.flat.tongues``.
 """
 
 import math

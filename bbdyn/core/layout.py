@@ -38,7 +38,7 @@ REC_WIDTH = 7
 #: Status of a particle that has not reached the end yet (between chunks); the finished
 #: ones carry a ``core.status`` code (>= 0).
 RUNNING = -1
-#: Columns of a particle's loop state ``carry.state`` (``bbdyn.ensemble.Carry``; everything
+#: Columns of a particle's loop state ``carry.state`` (``bbdyn.runs.Carry``; everything
 #: ``particle_loop`` keeps between events): the last event ``periods, phase, tile, xi, vx,
 #: vyrel, kind``, the start ``tile0, xi0``, the next sample index, the trap, the last
 #: departure ``(periods, phase)``, the feature ring count and tiny-hop run, the releases

@@ -13,12 +13,16 @@ differences of sines (which cancel) we use, with ``x = w tau`` and the phase
 
 with the plate velocity ``u(t) = -A w cos(w t)``.  Both are O(tau^2) and
 O(tau) exactly, with no cancellation.
+
+``release_window`` and ``stick_release``: when a particle resting on the floor leaves it
+(the same for the flat ball and the billiard: the floor's shape does not enter).
 """
 
 import math
 
 from numba import njit
 
+from bbdyn.core.status import OK, STUCK_FOREVER
 from bbdyn.core.tolerances import FMA
 
 TWO_PI = 2.0 * math.pi
@@ -176,3 +180,29 @@ def release_window(gamma):
         return -1.0, -1.0
     a = math.asin(1.0 / gamma)
     return math.pi + a, TWO_PI - a
+
+
+@njit(cache=True, fastmath=FMA, forceinline=True, error_model="numpy")
+def stick_release(periods, phase, kp):
+    """Time of the release that ends a stick at ``(periods, phase)`` (flat ball and billiard).
+
+    The floor holds a particle resting on it while its acceleration is above -g,
+    i.e. outside the release window ``theta_r <= theta < theta_e`` (``kp.release_r``,
+    ``kp.release_e``).  A stick inside the window lasts zero time: the particle leaves
+    at once, at ``phase``.  Before it, the particle leaves at ``theta_r`` of the same
+    period; from ``theta_e`` on, at ``theta_r`` of the next one.  The flight that
+    follows starts with the floor's velocity and is the release flight of
+    ``flat_flight`` and ``billiard_flight``.
+
+    Returns ``(periods, phase, status)`` of the release: whole periods, phase
+    (rad) and ``OK``, or the stick's own time and ``STUCK_FOREVER`` for
+    Gamma <= 1 (no window: it never leaves).
+    """
+    theta_r, theta_e = kp.release_r, kp.release_e
+    if theta_r < 0.0:
+        return periods, phase, STUCK_FOREVER
+    if theta_r <= phase < theta_e:
+        return periods, phase, OK
+    if phase < theta_r:
+        return periods, theta_r, OK
+    return periods + 1.0, theta_r, OK

@@ -10,7 +10,7 @@ diagonal of R add up to the two Lyapunov exponents.
 
 Sticking.  A chattering sequence that accumulates (or an impact at zero relative
 speed where the plate holds the particle) ends in a stick, and the stick ends at
-the release phase ``theta_r`` fixed by Gamma alone (``core.flat.stick_release``;
+the release phase ``theta_r`` fixed by Gamma alone (``core.plate.stick_release``;
 the accumulation point has ``g_eff > 0``, so it lies outside the release window
 and the stick never lasts zero time).  The state after the release therefore
 does not depend on the state before the stick: the tangent map of the whole

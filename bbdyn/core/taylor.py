@@ -9,6 +9,7 @@ TAYLOR_DEGREE (16), the lowest of these whose remainder is below eps of the rate
 """
 
 import math
+from typing import NamedTuple
 
 from numba import njit
 
@@ -28,6 +29,16 @@ _C4, _C5, _C6 = (tuple((-1) ** k / math.factorial(2 * k + j) for k in range(6)) 
 assert TAYLOR_DEGREE == 16  # drive_tail's Horner chains are written out to degree 16
 #: 1 / N! for the degrees N = 4, 8, 16 that ``drive_tail`` offers.
 _INV_4, _INV_8, _INV_16 = (1.0 / math.factorial(n) for n in (4, 8, 16))
+
+
+class TilePoint(NamedTuple):
+    """Where a flight is over its tile (``taylor_finish``); on a flat floor ``(0, R, 0,
+    inf)``: the top of an arc that never ends."""
+
+    xi: float  # the point over the tile, x - x_c (mm)
+    S: float  # arc_root(xi) = sqrt(R^2 - xi^2) (mm, the caller's)
+    vx: float  # horizontal velocity (mm/s)
+    room: float  # time to the next tile crossing (s)
 
 
 @njit(cache=True, fastmath=FMA, inline="always")
@@ -120,10 +131,11 @@ def arc_remainder(vx, u, kp):
 
 
 @njit(cache=True, fastmath=FMA, inline="always")
-def gap_series(t, G, Gp, g2, g3, g4, sn, cs, A, w, K):
+def gap_series(t, G, Gp, g2, g3, g4, sn, cs, K, kp):
     """The gap's Taylor polynomial (mm) and its rate (mm/s) ``t`` s after a point where they
     are ``G, Gp``: ``G + Gp t + g_2 t^2/2 + g_3 t^3/6 + g_4 t^4/24 + A y^5 T`` and its
     derivative (``y = w t``, ``T`` of ``drive_tail`` with K terms; see ``tiny_hop``)."""
+    A, w = kp.A, kp.w
     y = w * t
     T, Tp = drive_tail(y, sn, cs, K)
     y4 = y * y * y * y
@@ -145,13 +157,12 @@ def series_rate(t, Fp, F2, sn, cs, A, w, K):
 
 
 @njit(cache=True, fastmath=FMA, inline="always")
-def taylor_finish(tau, G, Gp, Fp, sn, cs, xi, S, vx, room, kp):
+def taylor_finish(tau, G, Gp, Fp, sn, cs, point, kp):
     """The contact of a descending flight from the Taylor polynomial of its gap.
 
     ``tau`` s into a flight the gap is ``G > 0`` (mm) and falls, ``Gp = G' < 0`` (mm/s);
-    ``sn, cs`` are the sine and cosine of the phase reached, ``xi`` (mm) the point over the
-    tile and ``S = arc_root(xi)`` (mm, the caller's), ``room`` (s) the time to the next tile
-    crossing, ``Fp = F'`` (mm/s).  Over ``u`` more seconds, with ``g_n`` of
+    ``sn, cs`` are the sine and cosine of the phase reached, ``point`` the ``TilePoint``
+    reached, ``Fp = F'`` (mm/s).  Over ``u`` more seconds, with ``g_n`` of
     ``gap_coefficients`` there (see ``tiny_hop``),
 
         G(tau + u) = G + Gp u + g_2 u^2/2 + g_3 u^3/6 + g_4 u^4/24
@@ -177,6 +188,7 @@ def taylor_finish(tau, G, Gp, Fp, sn, cs, xi, S, vx, room, kp):
     fails (the search then goes on with safe steps).
     """
     A, w = kp.A, kp.w
+    xi, S, vx, room = point
     aw = A * w
     fail = (0.0, xi, Fp, False)
     u0 = G / -Gp
@@ -202,7 +214,7 @@ def taylor_finish(tau, G, Gp, Fp, sn, cs, xi, S, vx, room, kp):
     # the quadratic's root (no cancellation: Gp < 0), closer than u0 by O(g_3 u^3)
     t = 2.0 * G / (math.sqrt(Gp * Gp - 2.0 * g2 * G) - Gp) if g2 < 0.0 else u0
     for _ in range(TAYLOR_NEWTON_MAX):
-        P, dP = gap_series(t, G, Gp, g2, g3, g4, sn, cs, A, w, K)
+        P, dP = gap_series(t, G, Gp, g2, g3, g4, sn, cs, K, kp)
         step = P / dP
         t -= step
         # the error Newton leaves, |P'' / 2 P'| step^2 with |P''| <= |g_2| + K3 t: negligible

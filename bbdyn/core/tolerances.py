@@ -41,7 +41,7 @@ OBS_INTEGRAL_REL_TOL = 64.0 * EPS
 #: (quad accepts nothing below 50 EPS; on these smooth integrands it does far better).
 QUAD_REL_TOL = 64.0 * EPS
 
-#: Newton solver for periodic orbits of the exact flat map (bbdyn.tongues): converged
+#: Newton solver for periodic orbits of the exact flat map (bbdyn.flat.tongues): converged
 #: when the closing residual, relative to 2 pi k (phase) and to the velocity scale,
 #: is below this.  The flight phases are exact to a few ulp (ROOT_STEP_REL), so a
 #: few hundred ulp leaves room for the sum over m flights.

@@ -1,7 +1,7 @@
 """A fixed-step event finder for the flat ball, like the reference paper's (B2).
 
 The flight itself is exact (the parabola and the plate are evaluated in closed
-form with ``bbdyn.core.flat.flat_gap``): the only approximation is where the
+form with ``bbdyn.core.search.flat_gap``): the only approximation is where the
 impact is put.  The gap is sampled on the grid ``tau_k = k dt`` after each
 impact; at the first sample with ``G <= 0`` the last step is halved (bisection,
 keeping the half whose right end has ``G <= 0`` and whose left end has
@@ -31,8 +31,8 @@ import math
 
 from numba import njit
 
-from bbdyn.core.flat import flat_gap
 from bbdyn.core.plate import advance_phase
+from bbdyn.core.search import flat_gap
 from bbdyn.core.status import BAD_STATE, NON_FINITE, OK, ROOT_NOT_CONVERGED
 
 

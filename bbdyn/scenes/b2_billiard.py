@@ -40,21 +40,17 @@ import time
 from typing import Any
 
 import numpy as np
-from numba import njit
 
 from bbdyn.core.billiard import (
     EventArrays,
     EventState,
-    billiard_flight,
     billiard_run,
-    event_search,
-    event_trig,
-    snap_to_wedge,
 )
 from bbdyn.core.floor import bounce
-from bbdyn.core.status import IMPACT, OK, STICK, raise_for_status
+from bbdyn.core.status import IMPACT, STICK, raise_for_status
 from bbdyn.core.tolerances import EPS, ROOT_STEP_REL
 from bbdyn.params import Params
+from bbdyn.reference.bench_kernels import billiard_continuous, billiard_one_step, flight_profile
 from bbdyn.reference.billiard_mpmath import reference_flight
 from bbdyn.reference.fixed_step_billiard import (
     fixed_step_billiard_one_step,
@@ -82,8 +78,6 @@ __all__ = [
     "FULL",
     "BilliardBenchResult",
     "attractor_states",
-    "exact_one_step",
-    "flight_profile",
     "compute",
     "draw",
     "table",
@@ -159,74 +153,6 @@ def attractor_states(params: Params, n_events: int) -> dict[str, np.ndarray]:
     return {k: v[:n_done:STATE_STRIDE] for k, v in arrays.items()}
 
 
-@njit(cache=True)
-def exact_one_step(starts, kp, out_tau, out_k, out_xi, out_vx, out_vy):
-    """``billiard_flight`` then the restitution law from each start (rows ``phase, xi, vx, vyrel``).
-
-    Writes the flight time (s), tile offset, contact ``xi`` (mm) and the absolute
-    post-impact velocity (mm/s, before any chattering decision) in place; returns
-    the first failure status or ``OK``.
-    """
-    for i in range(starts.shape[0]):
-        phase = starts[i, 0]
-        tau, k, xi, vym, _, status = billiard_flight(
-            phase, starts[i, 1], starts[i, 2], starts[i, 3], kp
-        )
-        if status != OK:
-            return status
-        xi = snap_to_wedge(xi, kp)
-        vx, vyrel, _, _ = bounce(xi, starts[i, 2], vym, kp)
-        out_tau[i] = tau
-        out_k[i] = k
-        out_xi[i] = xi
-        out_vx[i] = vx
-        out_vy[i] = vyrel - kp.A * kp.w * math.cos(phase + kp.w * tau)
-    return OK
-
-
-@njit(cache=True)
-def _continuous(state, kp, n_events):
-    """Status of ``n_events`` events of ``billiard_run`` from ``state`` (for timing)."""
-    start = EventState(state[0], state[1], state[2], state[3], state[4], state[5], state[6])
-    return billiard_run(start, kp, n_events, None)[2]
-
-
-@njit(cache=True)
-def flight_profile(state, kp, n_events):
-    """Cost profile of ``n_events`` events from ``state``, on the event path of
-    ``_continuous`` (``event_search``).
-
-    Returns ``(steps, flights, tiny, collisions, sticks, status)``: safe steps summed over
-    flights, flights, flights solved without a safe step (tiny hops, ``tiny_hop``),
-    collisions (IMPACT or STICK) and STICK events.
-    """
-    periods, phase, tile, xi, vx, vyrel = state[0], state[1], state[2], state[3], state[4], state[5]
-    kind = int(state[6])
-    trig = event_trig(phase, xi, kp)
-    steps = 0
-    flights = 0
-    tiny = 0
-    collisions = 0
-    sticks = 0
-    for _ in range(n_events):
-        if kind != STICK:
-            n_steps = billiard_flight(phase, xi, vx, vyrel, kp)[4]
-            steps += n_steps
-            tiny += n_steps == 0
-            flights += 1
-        nxt, status, trig = event_search(
-            EventState(periods, phase, tile, xi, vx, vyrel, kind), trig, kp, True
-        )
-        periods, phase, tile, xi, vx, vyrel, kind = nxt
-        if status != OK:
-            return steps, flights, tiny, collisions, sticks, status
-        if kind != 2:  # IMPACT or STICK
-            collisions += 1
-        if kind == STICK:
-            sticks += 1
-    return steps, flights, tiny, collisions, sticks, OK
-
-
 def _start_array(states) -> np.ndarray:
     """Rows ``(phase, xi, vx, vyrel)`` of the flights that start at the states (not STICKs)."""
     keep = states["kind"] != STICK
@@ -260,14 +186,14 @@ _TILE = 20_000
 def _bench_exact(kp, states, starts, ref, settings) -> list[dict[str, Any]]:
     n = starts.shape[0]
     out = [np.empty(n) for _ in range(5)]
-    raise_for_status(exact_one_step(starts, kp, *out), "exact one-step")
+    raise_for_status(billiard_one_step(starts, kp, *out), "exact one-step")
     tau, _, _, vx, vy = out
     errors = _errors(ref, tau, vx, vy)
     reps = -(-_TILE // n)
     tiled = np.ascontiguousarray(np.tile(starts, (reps, 1)))
     scratch = [np.empty(n * reps) for _ in range(5)]
     timing = measure(
-        lambda: exact_one_step(tiled, kp, *scratch),
+        lambda: billiard_one_step(tiled, kp, *scratch),
         repeats=settings["repeats"],
         min_time=settings["min_time"],
     )
@@ -286,7 +212,7 @@ def _bench_exact(kp, states, starts, ref, settings) -> list[dict[str, Any]]:
     steps, flights, _, collisions, sticks, status = flight_profile(state, kp, n_events)
     raise_for_status(status, "exact continuous run")
     timing = measure(
-        lambda: raise_for_status(_continuous(state, kp, n_events), "exact continuous run"),
+        lambda: raise_for_status(billiard_continuous(state, kp, n_events), "exact continuous run"),
         repeats=settings["repeats"],
         min_time=settings["min_time"],
     )
@@ -416,7 +342,7 @@ def _profile(settings) -> list[dict[str, Any]]:
         steps, flights, tiny, collisions, sticks, status = flight_profile(state, kp, n_events)
         raise_for_status(status, f"profile at {f} Hz")
         timing = measure(
-            lambda kp=kp, state=state: _continuous(state, kp, n_events),
+            lambda kp=kp, state=state: billiard_continuous(state, kp, n_events),
             repeats=settings["repeats"],
             min_time=settings["min_time"],
         )
@@ -504,7 +430,7 @@ def compute(settings: dict[str, Any], *, log=None) -> BilliardBenchResult:
     starts = np.ascontiguousarray(_start_array(states))
     tau, k = np.empty(starts.shape[0]), np.empty(starts.shape[0])
     scratch = [np.empty(starts.shape[0]) for _ in range(3)]
-    raise_for_status(exact_one_step(starts, kp, tau, k, *scratch), "exact one-step")
+    raise_for_status(billiard_one_step(starts, kp, tau, k, *scratch), "exact one-step")
     log(f"bench billiard: mpmath reference for {starts.shape[0]} flights")
     ref = _reference(kp, starts, k, tau)
     log("bench billiard: exact kernel")
@@ -526,8 +452,12 @@ def compute(settings: dict[str, Any], *, log=None) -> BilliardBenchResult:
     meta = make_meta(
         params,
         wall_s=time.perf_counter() - start,
-        case={"f": CASE["f"], "start": list(CASE["start"]), "transient": CASE["transient"],
-              "attractor": list(CASE["attractor"])},  # fmt: skip
+        case={
+            "f": CASE["f"],
+            "start": list(CASE["start"]),
+            "transient": CASE["transient"],
+            "attractor": list(CASE["attractor"]),
+        },  # fmt: skip
         settings=settings,
         rows=rows,
         observables=observables,
@@ -579,12 +509,14 @@ def table(result: BilliardBenchResult) -> str:
     profile = result.meta["profile"]
     rates = rate_columns(profile, "collisions", "coll", 9)
     lines.append(
-        f"{'f (Hz)':>7}" + "".join(f" {head:>{width}}" for _, head, width, _ in rates)
+        f"{'f (Hz)':>7}"
+        + "".join(f" {head:>{width}}" for _, head, width, _ in rates)
         + f" {'steps/flight':>12} {'tiny hops':>9} {'stick share':>11} {'ns/event':>8}"
     )
     for r in profile:
         lines.append(
-            f"{r['f']:>7g}" + "".join(f" {r[key]:>{width}{spec}}" for key, _, width, spec in rates)
+            f"{r['f']:>7g}"
+            + "".join(f" {r[key]:>{width}{spec}}" for key, _, width, spec in rates)
             + f" {r['steps_per_flight']:>12.2f} {r['tiny_share']:>9.3f} {r['stick_share']:>11.3f}"
             f" {r['ns_per_event']:>8.1f}"
         )

@@ -3,7 +3,7 @@
 Three ways to find the next impact are compared against the mpmath reference
 ``bbdyn.reference.flat_mpmath.reference_impacts``:
 
-* ``exact``: bbdyn's first-contact search ``bbdyn.core.flat.flat_flight_tol``,
+* ``exact``: bbdyn's first-contact search ``bbdyn.core.search.flat_flight_tol``,
   at the default stopping tolerance ``ROOT_STEP_REL`` (that of ``flat_flight``)
   and at looser ones (``step_rel``: the contact time is then early by up to
   about ``step_rel`` times the flight);
@@ -41,13 +41,13 @@ import time
 from typing import Any
 
 import numpy as np
-from numba import njit
 
-from bbdyn.core.flat import FlatArrays, FlatState, flat_flight_tol, flat_run
+from bbdyn.core.flat import FlatArrays, FlatState, flat_run
 from bbdyn.core.plate import TWO_PI
-from bbdyn.core.status import IMPACT, OK, STICK, raise_for_status
+from bbdyn.core.status import IMPACT, STICK, raise_for_status
 from bbdyn.core.tolerances import EPS, ROOT_STEP_REL
 from bbdyn.params import Params
+from bbdyn.reference.bench_kernels import flat_one_step
 from bbdyn.reference.fixed_step import fixed_step_one_step, fixed_step_run
 from bbdyn.reference.flat_ivp import ivp_flight
 from bbdyn.reference.heyoka_flight import (
@@ -75,7 +75,6 @@ __all__ = [
     "draw",
     "table",
     "start_states",
-    "exact_one_step",
     "one_step_errors",
     "long_run_stats",
 ]
@@ -181,24 +180,6 @@ def start_states(params: Params, n_impacts: int) -> dict[str, np.ndarray]:
     return {"phase": phases, "vrel": vrels, "tau": tau, "v": v}
 
 
-@njit(cache=True)
-def exact_one_step(phases, vrels, kp, step_rel, out_tau, out_vrel_minus):
-    """``flat_flight_tol`` at ``step_rel`` from each start state in turn (in place).
-
-    Returns ``(n_evals, status)``: the gap evaluations of all flights and the
-    first bad status (``OK`` if none).  ``step_rel = ROOT_STEP_REL`` is ``flat_flight``.
-    """
-    n_evals = 0
-    for i in range(phases.shape[0]):
-        tau, vm, status, n = flat_flight_tol(phases[i], vrels[i], kp, step_rel)
-        n_evals += n
-        if status != OK:
-            return n_evals, status
-        out_tau[i] = tau
-        out_vrel_minus[i] = vm
-    return n_evals, OK
-
-
 def _post_impact_v(kp, phases, tau, vrel_minus):
     """Absolute post-impact velocity v+ = -alpha vrel- + u (mm/s), docs/model.md impact law."""
     return -kp.alpha * vrel_minus - kp.A * kp.w * np.cos(phases + kp.w * tau)
@@ -230,11 +211,11 @@ def _bench_exact(kp, states, settings) -> list[dict[str, Any]]:
     for step_rel in [ROOT_STEP_REL, *settings["exact_tols"]]:
         tau = np.empty(n)
         vm = np.empty(n)
-        n_evals, status = exact_one_step(states["phase"], states["vrel"], kp, step_rel, tau, vm)
+        n_evals, status = flat_one_step(states["phase"], states["vrel"], kp, step_rel, tau, vm)
         raise_for_status(status, "exact")
 
         def run(step_rel=step_rel):
-            raise_for_status(exact_one_step(phases, vrels, kp, step_rel, tau_t, vm_t)[1], "exact")
+            raise_for_status(flat_one_step(phases, vrels, kp, step_rel, tau_t, vm_t)[1], "exact")
 
         timing = measure(run, repeats=settings["repeats"], min_time=settings["min_time"])
         if step_rel == ROOT_STEP_REL:
