@@ -206,15 +206,6 @@ def test_import_bbdyn_loads_neither_sympy_nor_matplotlib_nor_dask():
     assert out.stdout.split() == ["False", "False", "False"]
 
 
-#: Modules whose imports of bbdyn inside functions are still to move to module level.
-PENDING_MODULE_LEVEL = {
-    "bbdyn.reference.fixed_step_billiard",
-    "bbdyn.scenes.b2_billiard",
-    "bbdyn.scenes.b2_flat",
-    "bbdyn.scenes.b2_scan_cost",
-}
-
-
 def lazy_imports(module: str) -> list[str]:
     """The imports of bbdyn inside the functions of ``module`` without a ``# lazy:`` comment
     (on the import's line or the line above) saying why, as ``module:line``."""
@@ -240,9 +231,7 @@ def test_bbdyn_is_imported_at_module_level():
     """An import of bbdyn inside a function hides a dependency of its module: each one says
     why in a ``# lazy:`` comment (it keeps matplotlib, sympy and dask out of ``import bbdyn``,
     or breaks an import cycle)."""
-    hidden = [
-        hit for m in sorted(MODULES) if m not in PENDING_MODULE_LEVEL for hit in lazy_imports(m)
-    ]
+    hidden = [hit for m in sorted(MODULES) for hit in lazy_imports(m)]
     assert not hidden, "imports of bbdyn inside functions: " + ", ".join(hidden)
 
 

@@ -6,7 +6,8 @@ import math
 import numpy as np
 import pytest
 
-from bbdyn import Params, cli
+from bbdyn import Params
+from bbdyn.commands import cli
 from bbdyn.core.billiard import EventArrays, EventState, billiard_run, tiny_hop
 from bbdyn.core.plate import sin_cos
 from bbdyn.core.status import IMPACT, OK, STICK

@@ -12,8 +12,8 @@ import sys
 
 import pytest
 
-from bbdyn import Params, __version__, cli
-from bbdyn.commands import BILLIARD_OPTIONS, MODEL_MEANINGS
+from bbdyn import Params, __version__
+from bbdyn.commands import BILLIARD_OPTIONS, MODEL_MEANINGS, cli
 
 #: Commands that run the billiard, and the model options each takes (scan scans f).
 #: (lyapunov runs the billiard, or the flat ball with --flat, which needs --g.)

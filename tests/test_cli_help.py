@@ -7,7 +7,8 @@ import re
 
 import pytest
 
-from bbdyn import Params, cli
+from bbdyn import Params
+from bbdyn.commands import cli
 
 OWN = ("simulate", "gk", "tongues", "bench", "classify", "lyapunov", "scan", "doublings")
 #: a minimal valid command line of each command (for the parsed defaults)

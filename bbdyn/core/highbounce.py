@@ -1,4 +1,5 @@
-"""Kernels of the high-bounce approximation (dissipative standard map); see ``bbdyn.flat.highbounce``.
+"""Kernels of the high-bounce approximation (dissipative standard map); see
+``bbdyn.flat.highbounce``.
 
     theta' = theta + V,     V' = alpha V - 2 (1 + alpha) Gamma cos(theta'),
 

@@ -31,11 +31,15 @@ import numpy as np
 from numba import njit, prange
 
 from bbdyn.core.billiard import EventState, segment_gap, snap_to_wedge, tile_offset, wedge_reflect
+from bbdyn.core.ensemble import initial_states
 from bbdyn.core.floor import arc_root, floor_height_rel, from_normal_velocity, normal_velocity
 from bbdyn.core.layout import ACC_EX, ACC_EY, ACC_POT
 from bbdyn.core.observables import accumulate_interval, displacement, is_before, time_between
 from bbdyn.core.plate import advance_phase, sin_cos
-from bbdyn.core.status import IMPACT, NON_FINITE, OK, ROOT_NOT_CONVERGED
+from bbdyn.core.status import IMPACT, NON_FINITE, OK, ROOT_NOT_CONVERGED, raise_for_status
+from bbdyn.diffusion import einstein_D
+from bbdyn.ensemble import initial_conditions
+from bbdyn.runs import periods_phase
 
 __all__ = [
     "fixed_step_billiard_flight",
@@ -255,11 +259,6 @@ def fixed_step_ensemble(params, *, t, n, seed, dt, dt_min, transient=None, n_sam
         (whole run), ``gap_evals_per_collision``, ``wall_s``.
     """
     import time
-
-    from bbdyn.core.ensemble import initial_states
-    from bbdyn.core.status import raise_for_status
-    from bbdyn.diffusion import einstein_D
-    from bbdyn.ensemble import initial_conditions, periods_phase
 
     for name, value in (("t", t), ("dt", dt), ("dt_min", dt_min)):
         if not (math.isfinite(value) and value > 0):

@@ -49,6 +49,7 @@ from bbdyn.core.billiard import (
 from bbdyn.core.floor import bounce
 from bbdyn.core.status import IMPACT, STICK, raise_for_status
 from bbdyn.core.tolerances import EPS, ROOT_STEP_REL
+from bbdyn.ensemble import ensemble
 from bbdyn.params import Params
 from bbdyn.reference.bench_kernels import billiard_continuous, billiard_one_step, flight_profile
 from bbdyn.reference.billiard_mpmath import reference_flight
@@ -71,6 +72,7 @@ from bbdyn.reference.timing import (
     single_thread,
 )
 from bbdyn.results import Result, make_meta
+from bbdyn.scenes.b2_flat import describe, draw_point_key, number_points
 
 __all__ = [
     "CASE",
@@ -234,8 +236,6 @@ def _bench_exact(kp, states, starts, ref, settings) -> list[dict[str, Any]]:
 
 def _bench_ensemble(params, settings) -> dict[str, Any]:
     """Collisions per second of ``bbdyn.ensemble.ensemble`` (reference box, no transient)."""
-    from bbdyn.ensemble import ensemble
-
     cfg = settings["ensemble"]
     # t f whole periods, transient 0: the collision count covers the whole run.
     t = math.floor(cfg["t"] * params.f) / params.f
@@ -307,8 +307,6 @@ def _bench_heyoka(kp, starts, ref, settings) -> list[dict[str, Any]]:
 
 def _observables(params, settings) -> list[dict[str, Any]]:
     """D and energies of the same ensemble (seed, box) with the exact and fixed-step methods."""
-    from bbdyn.ensemble import ensemble
-
     cfg = settings["observables"]
     res = ensemble(params, t=cfg["t"], n=cfg["n"], seed=cfg["seed"])
     exact = {"method": "exact", "setting": "default", **res.summary()}
@@ -378,8 +376,6 @@ class BilliardBenchResult(Result):
         numbered as in ``point_key``."""
         import matplotlib.pyplot as plt
 
-        from bbdyn.scenes.b2_flat import number_points
-
         if ax is None:
             _, ax = plt.subplots()
         floor = 1e-19
@@ -409,7 +405,6 @@ class BilliardBenchResult(Result):
 
     def point_key(self) -> list[str]:
         """The points of the panel in words, in the order of their numbers."""
-        from bbdyn.scenes.b2_flat import describe
 
         return [describe(r) for _, _, rows in self.drawn_rows() for r in rows]
 
@@ -471,8 +466,6 @@ def compute(settings: dict[str, Any], *, log=None) -> BilliardBenchResult:
 def draw(result: BilliardBenchResult):
     """Figure: work-precision panel and the per-frequency cost profile."""
     import matplotlib.pyplot as plt
-
-    from bbdyn.scenes.b2_flat import draw_point_key
 
     fig, axes = plt.subplots(1, 2, figsize=(11, 4.5))
     result.plot(axes[0])

@@ -50,6 +50,7 @@ from bbdyn.params import Params
 from bbdyn.reference.bench_kernels import flat_one_step
 from bbdyn.reference.fixed_step import fixed_step_one_step, fixed_step_run
 from bbdyn.reference.flat_ivp import ivp_flight
+from bbdyn.reference.flat_mpmath import reference_impacts
 from bbdyn.reference.heyoka_flight import (
     FlatTaylor,
     heyoka_available,
@@ -87,6 +88,7 @@ __all__ = [
 #: is on the attractor: the exact map's state 1e4 events after (0.3, 50), fixed
 #: here so that the compared window does not change with the kernel's last bits;
 #: the reference reaches no stick in its first 1000 impacts.
+
 CASE = {"f": 82.0, "alpha": 0.8, "phase0": 1.6362617649333338, "vrel0": 135.8286096710472}
 
 #: A flight whose time differs from the reference by more than this fraction of
@@ -163,7 +165,6 @@ def start_states(params: Params, n_impacts: int) -> dict[str, np.ndarray]:
         ``phase`` (rad), ``vrel`` (mm/s): start states; ``tau`` (s): reference
         flight time; ``v`` (mm/s): reference absolute post-impact velocity.
     """
-    from bbdyn.reference.flat_mpmath import reference_impacts
 
     phase, vrel = CASE["phase0"], CASE["vrel0"]
     traj = reference_impacts(params, phase, vrel, n_impacts)

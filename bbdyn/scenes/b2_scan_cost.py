@@ -36,6 +36,8 @@ import numpy as np
 
 from bbdyn.reference.timing import single_thread
 from bbdyn.results import Result, make_meta
+from bbdyn.scans.frequency import N_SAMPLES, diffusion_point
+from bbdyn.scans.runner import point_seed
 
 __all__ = ["BANDS", "FULL", "QUICK", "agreement_sentence", "band_masks", "band_sums", "compute",
            "measured_bands", "measured_table", "predict",
@@ -43,6 +45,7 @@ __all__ = ["BANDS", "FULL", "QUICK", "agreement_sentence", "band_masks", "band_s
            "table"]  # fmt: skip
 
 #: Cost bands of the scan (Hz, grid points included at both ends): different regimes.
+
 BANDS = ((49.8, 53.0), (53.2, 57.4), (57.6, 65.0), (65.2, 80.0), (80.2, 95.0))
 #: The full S3-S5 scan: grid step (Hz), particles, simulated time (s).
 F_STEP, FULL_N, FULL_T = 0.2, 1000, 200.0
@@ -110,8 +113,6 @@ def point_cpu(f: float, n: int, t: float, seed: int) -> float:
     = ``FULL_T / (N_SAMPLES - 1)``, at least 11 samples): periodic stick-release
     cycles are fast-forwarded only between samples, so denser samples would cost more.
     """
-    from bbdyn.scans.frequency import N_SAMPLES, diffusion_point
-    from bbdyn.scans.runner import point_seed
 
     n_samples = max(11, round(t / FULL_T * (N_SAMPLES - 1)) + 1)
     start = time.process_time()
