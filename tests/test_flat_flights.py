@@ -11,11 +11,11 @@ ROOT = Path(__file__).resolve().parents[1]
 
 
 def no_finish_patch(folder: Path) -> Path:
-    """A unified diff of the tree's own ``core/flat.py`` that switches the Taylor finish off
+    """A unified diff of the tree's own ``core/search.py`` that switches the Taylor finish off
     (safe steps to the end: more gap evaluations per flight), written into ``folder``."""
     import difflib
 
-    path = "bbdyn/core/flat.py"
+    path = "bbdyn/core/search.py"  # flat_flight_tol: the flat search and its Taylor finish
     old = (ROOT / path).read_text().splitlines(keepends=True)
     line = "    finish = step_rel <= ROOT_STEP_REL\n"
     assert line in old

@@ -81,7 +81,10 @@ def test_kernel_digest_covers_what_kernels_reach(tmp_path):
     cli = package / "commands" / "cli.py"
     cli.write_text(cli.read_text() + "\n")  # no kernel
     assert kernel_digest(package) == key
-    for touched in ("core/tolerances.py", "scenes/b2_flat.py"):  # constants; a kernel outside core
+    for touched in (
+        "core/tolerances.py",
+        "reference/bench_kernels.py",
+    ):  # constants; kernels outside core
         path = package / touched
         path.write_text(path.read_text() + "\n")
         assert kernel_digest(package) != key
@@ -90,5 +93,7 @@ def test_kernel_digest_covers_what_kernels_reach(tmp_path):
 
 def test_kernel_modules_are_the_ones_with_cached_kernels():
     modules = kernel_modules()
-    assert {"bbdyn.core.billiard", "bbdyn.core.ensemble", "bbdyn.scenes.b2_flat"} <= set(modules)
+    assert {"bbdyn.core.billiard", "bbdyn.core.ensemble", "bbdyn.reference.bench_kernels"} <= set(
+        modules
+    )
     assert "bbdyn.sources" not in modules and "bbdyn.core.tolerances" not in modules
