@@ -6,26 +6,16 @@ import json
 import math
 
 from derivation_loader import ROOT, load_benchmark
+from json_trees import json_close
 
 
 def _committed() -> dict:
     return json.loads((ROOT / "docs" / "data" / "benchmarks.json").read_text())
 
 
-def _close(a, b) -> bool:
-    """Equal, floats to 1e-12 relative (the JSON round trip), recursively."""
-    if isinstance(a, dict):
-        return isinstance(b, dict) and a.keys() == b.keys() and all(_close(a[k], b[k]) for k in a)
-    if isinstance(a, list):
-        return isinstance(b, list) and len(a) == len(b) and all(map(_close, a, b))
-    if isinstance(a, float) and isinstance(b, float):
-        return math.isclose(a, b, rel_tol=1e-12)
-    return a == b
-
-
 def test_committed_summary_is_what_the_script_computes():
     fresh = json.loads(json.dumps(load_benchmark("summarize").summarize()))
-    assert _close(_committed(), fresh), "run python benchmarks/summarize.py"
+    assert json_close(_committed(), fresh), "run python benchmarks/summarize.py"
 
 
 def test_target_verdicts_follow_from_the_numbers():
