@@ -72,7 +72,8 @@ def test_the_role_inserts_the_value_in_a_built_page(tmp_path):
     )
     (src / "index.md").write_text(
         "# t\n\nstep {data}`figures/S3_full.json:meta/settings/f_step|.2f` Hz\n\n"
-        "| a |\n|---|\n| {data}`figures/S3_full.json:meta/settings/f_step\\|.3f` |\n"
+        "| a |\n|---|\n| {data}`figures/S3_full.json:meta/settings/f_step\\|.3f` |\n\n"
+        "```{data-table} data/lyapunov.json:billiard_orbits\n```\n"
     )
     app = Sphinx(src, src, tmp_path / "out", tmp_path / "doctrees", "html", status=None,
                  warningiserror=True)  # fmt: skip
@@ -80,3 +81,17 @@ def test_the_role_inserts_the_value_in_a_built_page(tmp_path):
     html = (tmp_path / "out" / "index.html").read_text()
     assert "step 0.20 Hz" in html and "<td><p>0.200</p></td>" in html
     assert "S3_full.json" not in html
+    # the data table: its header and every cell, in a table of the page
+    table = datavalue.lookup("data/lyapunov.json", "billiard_orbits")
+    assert "<th" in html and all(f"<p>{c}</p>" in html for c in table["columns"][:2])
+    assert all(f"<td><p>{cell}</p></td>" in html for row in table["rows"] for cell in row)
+
+
+def test_a_data_table_needs_columns_and_rows_of_their_length():
+    lines = datavalue.table_markdown("data/lyapunov.json:flat")
+    table = datavalue.lookup("data/lyapunov.json", "flat")
+    assert len(lines) == 2 + len(table["rows"]) and lines[1].count("---") == len(table["columns"])
+    with pytest.raises(KeyError, match="no table"):
+        datavalue.table_markdown("data/lyapunov.json:command")
+    with pytest.raises(ValueError, match="FILE.json:KEY"):
+        datavalue.table_markdown("data/lyapunov.json:flat|.2f")

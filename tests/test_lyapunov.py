@@ -6,7 +6,9 @@ telescopes along a trajectory), finite differences of whole trajectories of the
 event kernel, and the stick that forgets the state.
 """
 
+import json
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -17,7 +19,6 @@ from bbdyn.core.status import IMPACT, OK, STICK, STUCK_FOREVER
 from bbdyn.core.tangent import TangentWindows, flat_tangent_run
 from bbdyn.flat.tongues import (
     find_periodic_orbit,
-    k1_orbit,
     k1_orbit_numeric,
     params_at_gamma,
     tongue_gamma_hi,
@@ -276,124 +277,31 @@ def test_lyapunov_command_warns_when_the_windows_drift(capsys):
         assert len(warned) == (0 if agree else 1), err
 
 
-#: The measurement quoted in docs/lyapunov.md: ``bbdyn lyapunov --f F`` (defaults n = 20,
-#: t = 20 s, transient = 2 s, seed = 0), flat ball, alpha = 0.5.
-DOC_FREQS = (58.0, 70.0, 85.2, 88.4)
+def _tables_script():
+    """``docs/data/lyapunov_tables.py``, which computes the tables of docs/lyapunov.md."""
+    import importlib.util
+
+    path = Path(__file__).resolve().parents[1] / "docs" / "data" / "lyapunov_tables.py"
+    spec = importlib.util.spec_from_file_location("lyapunov_tables", path)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
 
 
-def _fmt(value, se):
-    """``value ± se``; a spread at rounding level (identical particles) is written 0."""
-    if value == -math.inf:
-        return "-inf"
-    return f"{value:.4g} ± {se if se > 1e-9 * abs(value) else 0:.2g}"
+def _committed_tables() -> dict:
+    path = Path(__file__).resolve().parents[1] / "docs" / "data" / "lyapunov.json"
+    return json.loads(path.read_text())
 
 
-def doc_rows() -> list[str]:
-    """The rows of the measured table in docs/lyapunov.md, recomputed."""
-    rows = []
-    for f in DOC_FREQS:
-        s = flat_lyapunov(Params(f=f), 20, t=20.0, transient=2.0, seed=0).summary()
-        rows.append(
-            f"| {f:g} | {_fmt(s['lam1_per_s'], s['lam1_per_s_se'])} "
-            f"| {_fmt(s['lam1_per_impact'], s['lam1_per_impact_se'])} "
-            f"| {_fmt(s['cond_lam1_per_s'], s['cond_lam1_per_s_se'])} "
-            f"| {_fmt(s['cond_lam1_per_impact'], s['cond_lam1_per_impact_se'])} "
-            f"| {s['stuck_fraction']:.2f} | {s['impacts_per_s']:.1f} |"
-        )
-    return rows
-
-
-def orbit_rows() -> list[str]:
-    """The periodic-orbit rows of docs/lyapunov.md: multipliers' logs against the tangent run."""
-    rows = []
-    gamma = tongue_gamma_hi(1, ALPHA) * 0.98
-    p = params_at_gamma(gamma, alpha=ALPHA)
-    orbits = [("1/1", p, k1_orbit_numeric(1, gamma, ALPHA), 1)]
-    gamma = tongue_gamma_hi(1, ALPHA) * 1.004
-    p2 = params_at_gamma(gamma, alpha=ALPHA)
-    one = k1_orbit_numeric(1, gamma, ALPHA)
-    out = (np.empty(3000), np.empty(3000), np.empty(3000), np.empty(3000, np.int64))
-    start = FlatState(0.0, one["phase"][0] + 1e-4, one["vrel"][0], IMPACT)
-    flat_run(start, p2.kernel(), 3000, FlatArrays(*out))
-    orbits.append(("2/2", p2, find_periodic_orbit(p2, 2, 2, out[1][-1], out[2][-1]), 2))
-    for name, pp, orbit, m in orbits:
-        res = flat_lyapunov_from(pp, [orbit["phase"][0]], [orbit["vrel"][0]], t=30.0)
-        mu = np.sort(np.log(np.abs(orbit.eigenvalues)))[::-1] / m
-        lam = res.exponents("impact")[0]
-        rows.append(
-            f"| {name} | {pp.f:.4f} | {mu[0]:.5f}, {mu[1]:.5f} | {lam[0]:.5f}, {lam[1]:.5f} "
-            f"| {int(res['impacts'].sum())} |"
-        )
-    return rows
-
-
-def billiard_doc_groups(n: int = 20, t: float = 20.0, transient: float = 2.0) -> list:
-    """``(f, regime, name, fraction, summary)`` of the whole ensemble and of each attractor,
-    as ``bbdyn lyapunov --f F --n n --t t --transient transient`` (seed 0, classified)."""
-    from bbdyn.lyapunov import billiard_lyapunov
-
-    out = []
-    for f in DOC_FREQS:
-        res = billiard_lyapunov(Params(f=f), n, t=t, transient=transient, seed=0,
-                                classify_attractors=True)  # fmt: skip
-        cls = res.meta["classification"]
-        out.append((f, cls["regime"], "all", 1.0, res.summary()))
-        for a in res.by_attractor():
-            name = f"{a['attractor']}: {cls['attractors'][a['attractor']]['character']}"
-            out.append((f, cls["regime"], name, a["fraction"], a))
-    return out
-
-
-def billiard_doc_rows(groups) -> list[str]:
-    """The rows of the billiard's measured tables in docs/lyapunov.md."""
-    rows = []
-    for f, regime, name, fraction, g in groups:
-        windows = ", ".join(f"{x:.3g}" for x in g["window_cond_lam1_per_s"])
-        rows.append(
-            f"| {f:g} | {regime} | {name} | {fraction:.2f} "
-            f"| {_fmt(g['lam1_per_s'], g['lam1_per_s_se'])} "
-            f"| {_fmt(g['lam1_per_collision'], g['lam1_per_collision_se'])} "
-            f"| {g['collisions_per_s']:.1f} | {windows} |"
-        )
-    return rows
-
-
-def billiard_orbit_rows() -> list[str]:
-    """The top-orbit rows of docs/lyapunov.md: closed form against a tangent run of 4000
-    collisions started on the orbit."""
-    from bbdyn.core.billiard_tangent import billiard_tangent_run
-    from bbdyn.lyapunov import top_orbit_exponent
-
-    rows = []
-    for f, k in ((58.0, 1), (75.0, 2), (88.4, 3)):
-        p = Params(f=f)
-        o = k1_orbit(p, k)
-        n = 4000
-        vec, log, t_last = np.full(4, 0.5), np.zeros(1), np.zeros(1)
-        collisions, collapses = np.zeros(1, np.int64), np.zeros(1, np.int64)
-        state = (0.0, o.phase_stable, 0.0, 0.0, 0.0, o.vrel, IMPACT)
-        out = TangentWindows(log, collisions, collapses, t_last)
-        billiard_tangent_run(state, p.kernel(), np.array([n * k + 0.5]), vec, out)
-        duration = (t_last[0] - o.phase_stable / (2 * math.pi)) / f
-        lam = top_orbit_exponent(p, k)
-        rows.append(
-            f"| {k}/1 | {f:g} | {math.exp(lam * k / f):.6f} | {lam * k / f:.5f} "
-            f"| {log[0] / collisions[0]:.5f} | {lam:.4f} | {log[0] / duration:.4f} "
-            f"| {int(collisions[0])} |"
-        )
-    return rows
-
-
-def test_numbers_in_the_docs_page_come_from_the_code():
-    from pathlib import Path
-
-    text = (Path(__file__).resolve().parents[1] / "docs" / "lyapunov.md").read_text()
-    billiard = billiard_doc_rows(billiard_doc_groups())
-    flat = doc_rows()
-    for row in flat + orbit_rows() + billiard + billiard_orbit_rows():
-        assert row in text, row
-    # "Between sticks neighbouring states separate at 70 and 85.2 Hz ... and approach at 58"
-    cond = {float(r.split("|")[1]): float(r.split("|")[4].split("±")[0]) for r in flat}
+def test_the_docs_tables_are_what_the_code_computes():
+    """docs/data/lyapunov.json (the tables of docs/lyapunov.md) is what the code computes
+    now, and the page's sentence holds in it: between sticks neighbouring flat-ball states
+    separate at 70 and 85.2 Hz and approach at 58 Hz."""
+    script, committed = _tables_script(), _committed_tables()
+    fresh = script.tables(long=False)
+    for key in ("flat", "flat_orbits", "billiard", "billiard_orbits"):
+        assert fresh[key] == committed[key], f"{key}: run {script.COMMAND}"
+    cond = {float(r[0]): float(r[3].split("±")[0]) for r in committed["flat"]["rows"]}
     assert cond[70.0] > 0 and cond[85.2] > 0 and cond[58.0] < 0
 
 
@@ -402,13 +310,10 @@ def test_longer_billiard_runs_in_the_docs_page_come_from_the_code():
     """The convergence table of docs/lyapunov.md (n = 100, t = 50 s, transient 5 s; ~1 min)
     and its sentence: every exponent but the 58 Hz trapped cycle agrees with the short runs
     within two combined standard errors; that one does not."""
-    from pathlib import Path
-
-    text = (Path(__file__).resolve().parents[1] / "docs" / "lyapunov.md").read_text()
-    long = billiard_doc_groups(100, 50.0, 5.0)
-    for row in billiard_doc_rows(long):
-        assert row in text, row
-    short = {(f, name): g for f, _, name, _, g in billiard_doc_groups()}
+    script = _tables_script()
+    long = script.billiard_groups(100, 50.0, 5.0)
+    assert script.billiard_table(long) == _committed_tables()["billiard_long"]
+    short = {(f, name): g for f, _, name, _, g in script.billiard_groups()}
     for f, _, name, _, g in long:
         if name == "all" or (f, name) not in short:
             continue

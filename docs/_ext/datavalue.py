@@ -12,6 +12,13 @@ value ``{"value": v, "se": s}`` is written ``v ± s`` with the same spec for bot
 file or key is a build error (the site is built with ``-W``), so a page cannot keep a number
 whose data is gone. ``resolve`` is what the tests call to check every reference of the pages
 without building the site.
+
+A whole table computed by a script is drawn by the directive
+
+    ```{data-table} data/lyapunov.json:flat
+    ```
+
+from ``{"columns": [...], "rows": [[cell, ...], ...]}`` at that key (``table_markdown``).
 """
 
 from __future__ import annotations
@@ -22,6 +29,8 @@ from functools import cache
 from pathlib import Path
 
 from docutils import nodes
+from docutils.statemachine import StringList
+from sphinx.util.docutils import SphinxDirective
 
 DOCS = Path(__file__).resolve().parents[1]
 #: one reference: FILE:KEY[|FMT]
@@ -87,8 +96,44 @@ def data_role(name, rawtext, text, lineno, inliner, options=None, content=None):
         return [inliner.problematic(rawtext, rawtext, message)], [message]
 
 
+def table_markdown(reference: str) -> list[str]:
+    """Markdown lines of the table at ``FILE:KEY``: ``{"columns": [...], "rows": [[...]]}``,
+    cells as they are written (``|`` escaped)."""
+    match = REFERENCE.match(reference.strip())
+    if match is None or match["fmt"] is not None:
+        raise ValueError(f"a data table is FILE.json:KEY, got '{reference}'")
+    table = lookup(match["file"], match["key"])
+    if not (isinstance(table, dict) and {"columns", "rows"} <= set(table)):
+        raise KeyError(f"docs/{match['file']}: '{match['key']}' is no table (columns, rows)")
+
+    def line(cells) -> str:
+        return "| " + " | ".join(str(c).replace("|", "\\|") for c in cells) + " |"
+
+    columns = table["columns"]
+    if any(len(row) != len(columns) for row in table["rows"]):
+        raise ValueError(f"docs/{match['file']}: a row of '{match['key']}' has the wrong length")
+    return [line(columns), line(["---"] * len(columns)), *map(line, table["rows"])]
+
+
+class DataTable(SphinxDirective):
+    """The ``data-table`` directive: the table at ``FILE.json:KEY`` as a Markdown table."""
+
+    required_arguments = 1
+
+    def run(self):
+        try:
+            lines = table_markdown(self.arguments[0])
+        except (KeyError, ValueError) as err:
+            raise self.error(f"data table: {err}") from err
+        container = nodes.container()
+        self.state.nested_parse(StringList(lines, source=self.env.docname), self.content_offset,
+                                container)  # fmt: skip
+        return container.children
+
+
 def setup(app):
     app.add_role("data", data_role)
+    app.add_directive("data-table", DataTable)
     # Sphinx looks a role up in the default domain first, and the Python domain has its own
     # "data" role (cross-references to module data): it would take every {data} reference and
     # render it as an unresolved literal, silently. The pages use no Python :data: role.
