@@ -23,7 +23,11 @@ import time
 import numpy as np
 
 from bbdyn.classify import classify
-from bbdyn.core.billiard_tangent import billiard_tangent_run
+from bbdyn.core.billiard_tangent import (
+    SpectrumWindows,
+    billiard_tangent_run,
+    complete_frame,
+)
 from bbdyn.core.plate import TWO_PI
 from bbdyn.core.status import IMPACT, OK, STATUS_MESSAGES, STUCK_FOREVER
 from bbdyn.core.tangent import TangentWindows, flat_tangent_run
@@ -344,16 +348,23 @@ NOT_CLASSIFIED = -3
 
 
 class BilliardLyapunovResult(Result):
-    """Growth of one tangent vector of an ensemble of billiard particles (largest exponent).
+    """Growth of the tangent vectors of an ensemble of billiard particles (largest exponent,
+    or all four).
 
     Arrays (n particles, w windows): ``log_growth`` (n, w) sums of ``log |J v| / |v|``
-    over the events of each window; ``collisions`` (n, w) IMPACT and STICK events;
+    of the first vector over the events of each window; ``collisions`` (n, w) IMPACT and
+    STICK events;
     ``collapses`` (n, w) sticks at a wedge (the whole tangent space collapses, the
     exponent is ``-inf``); ``duration`` (n, w) seconds between the last events of
     successive windows; ``status`` (n,); ``initial`` (n, 3) the initial conditions
     ``(s, vx+, vy+)`` at t = 0 (mm, mm/s); ``labels`` (n,) the attractor of each particle
     found by ``bbdyn.classify`` (``-1`` unsettled, ``-2`` failed, ``NOT_CLASSIFIED``).
-    Meta: ``n``, ``t``, ``transient``, ``windows``, params, seed.
+    With the whole spectrum (meta ``spectrum``): ``spectrum_growth`` (n, w, 4) sums of
+    ``log R_ii`` over the *carried* events (impact to impact: no stick, release or flight
+    from a release); ``log_det`` (n, w) the closed-form ``log |det J|`` summed over the
+    same events (``core.billiard_tangent.event_log_det``); ``carried`` (n, w) their number
+    and ``carried_time`` (n, w) their seconds; ``sticks`` (n, w) STICK events.
+    Meta: ``n``, ``t``, ``transient``, ``windows``, ``spectrum``, ``qr_every``, params, seed.
     """
 
     kind = "billiard_lyapunov"
@@ -404,7 +415,7 @@ class BilliardLyapunovResult(Result):
         ``lam1_per_collision_se``: ``-inf`` (error NaN) if a particle collapsed; the same
         with ``cond_`` for the growth between collapses; ``collapse_fraction``,
         ``collisions_per_s``, ``n``, ``window_cond_lam1_per_s`` (1/s, per window) and their
-        agreement (``window_agreement``).
+        agreement (``window_agreement``); with the whole spectrum, ``spectrum_summary``.
         """
         sel = np.ones(self["status"].shape, bool) if select is None else np.asarray(select)
         out = {"n": int(np.sum(sel))}
@@ -424,6 +435,108 @@ class BilliardLyapunovResult(Result):
         out["collisions_per_s"] = float(np.sum(collisions[sel]) / total) if total > 0 else math.nan
         out["window_cond_lam1_per_s"] = [float(x) for x in self.window_exponents(select=sel)]
         out.update(window_agreement(self["log_growth"][sel], self["duration"][sel]))
+        if "spectrum_growth" in self.arrays:
+            out.update(self.spectrum_summary(sel))
+        return out
+
+    def _require_spectrum(self) -> None:
+        if "spectrum_growth" not in self.arrays:
+            raise ValueError("the whole spectrum needs a run with spectrum=True")
+
+    def free(self) -> np.ndarray:
+        """(n,) whether the whole frame carried every measured event of the particle (no
+        stick, release or collapse): only then are all four exponents finite."""
+        self._require_spectrum()
+        collisions = self["collisions"].sum(axis=1)
+        return (
+            (self["carried"].sum(axis=1) == collisions)
+            & (collisions > 0)
+            & (self["collapses"].sum(axis=1) == 0)
+            & (self["status"] == OK)
+        )
+
+    def spectrum(self, per: str = "second") -> np.ndarray:
+        """All four exponents (n, 4), largest first, per second (1/s) or per collision.
+
+        A particle carried through every event (``free``): the sums of ``log R_ii`` over
+        the elapsed time or the collisions.  A particle that stuck: its largest exponent
+        (``exponents``, the position along the floor survives the stick) and ``-inf`` three
+        times (a stick leaves one direction); a collapse (stick at a wedge): four ``-inf``.
+        """
+        self._require_spectrum()
+        lam = np.full((self["status"].size, 4), -math.inf)
+        lam[:, 0] = self.exponents(per)
+        free = self.free()
+        growth = self["spectrum_growth"].sum(axis=1)
+        denom = _denominator(
+            per, self["collisions"].sum(axis=1), self["duration"].sum(axis=1), "collision"
+        )
+        lam[free, 1:] = growth[free, 1:] / denom[free, None]
+        return lam
+
+    def free_spectrum(self, per: str = "second") -> np.ndarray:
+        """The four exponents (n, 4) from the growth over the carried events only (between
+        sticks), per second of them (1/s) or per carried event; NaN without one."""
+        self._require_spectrum()
+        denom = _denominator(
+            per, self["carried"].sum(axis=1), self["carried_time"].sum(axis=1), "event"
+        )
+        with np.errstate(divide="ignore", invalid="ignore"):
+            lam = self["spectrum_growth"].sum(axis=1) / denom[:, None]
+        lam[self["carried"].sum(axis=1) == 0] = math.nan
+        return lam
+
+    def determinant_check(self) -> tuple[np.ndarray, np.ndarray]:
+        """Per particle (n,): the sum of the four exponents per carried event and the mean
+        closed-form ``log |det J|`` over the same events (NaN without one)."""
+        self._require_spectrum()
+        carried = self["carried"].sum(axis=1).astype(float)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            qr = self["spectrum_growth"].sum(axis=(1, 2)) / carried
+            closed = self["log_det"].sum(axis=1) / carried
+        return qr, closed
+
+    def spectrum_summary(self, select=None) -> dict:
+        """The spectrum's numbers over the (selected) particles, mean and standard error of
+        each exponent (lists of four, largest first).
+
+        ``spectrum_per_s`` (1/s), ``spectrum_per_collision`` (``-inf``, error NaN, where a
+        particle stuck: ``spectrum``); ``free_spectrum_per_s``, ``free_spectrum_per_event``
+        (between sticks, over the particles with a carried event); ``spectrum_sum_per_event``
+        and ``log_det_per_event`` (the QR sum against the closed form, per carried event),
+        ``spectrum_sum_deviation`` (the largest difference of the two over the particles);
+        ``stuck_fraction`` (particles with a stick or collapse), ``stick_event_fraction``
+        (STICK events per collision), ``inf_exponents`` (most ``-inf`` exponents of a
+        particle), ``carried_fraction`` (carried events per collision).
+        """
+        sel = np.ones(self["status"].shape, bool) if select is None else np.asarray(select)
+        out = {}
+        for key, lam in (
+            ("spectrum_per_s", self.spectrum("second")),
+            ("spectrum_per_collision", self.spectrum("collision")),
+            ("free_spectrum_per_s", self.free_spectrum("second")),
+            ("free_spectrum_per_event", self.free_spectrum("event")),
+        ):
+            lam = lam[sel]
+            if key.startswith("free"):
+                lam = lam[np.all(np.isfinite(lam), axis=1)]
+            pairs = [_mean_se(lam[:, i]) if lam.shape[0] else (math.nan, math.nan)
+                     for i in range(4)]  # fmt: skip
+            out[key], out[f"{key}_se"] = [p[0] for p in pairs], [p[1] for p in pairs]
+        qr, closed = (x[sel] for x in self.determinant_check())
+        ok = np.isfinite(qr)
+        for key, x in (("spectrum_sum_per_event", qr), ("log_det_per_event", closed)):
+            out[key], out[f"{key}_se"] = _mean_se(x[ok]) if ok.any() else (math.nan, math.nan)
+        out["spectrum_sum_deviation"] = float(np.max(np.abs(qr[ok] - closed[ok]))) if ok.any() \
+            else math.nan
+        collisions = self["collisions"][sel].sum()
+        out["stuck_fraction"] = float(np.mean(~self.free()[sel])) if sel.any() else math.nan
+        out["stick_event_fraction"] = float(self["sticks"][sel].sum() / collisions) \
+            if collisions else math.nan
+        out["carried_fraction"] = float(self["carried"][sel].sum() / collisions) \
+            if collisions else math.nan
+        spec = self.spectrum("second")[sel]
+        out["inf_exponents"] = int(np.max(np.sum(spec == -math.inf, axis=1))) if sel.any() else 0
         return out
 
     def by_attractor(self) -> list[dict]:
@@ -440,10 +553,25 @@ class BilliardLyapunovResult(Result):
         return _plot_windows(self.window_exponents(), ax)
 
 
+def _start_frame(m: int) -> np.ndarray:
+    """The first tangent frame (4, m): ``(1, 1, 1, 1) / 2`` and, for m > 1, its complement."""
+    frame = np.zeros((4, m))
+    frame[:, 0] = 0.5
+    complete_frame(frame)
+    return frame
+
+
 def billiard_lyapunov_from(
-    params: Params, states, *, t: float, transient: float = 0.0, windows: int = 4
+    params: Params,
+    states,
+    *,
+    t: float,
+    transient: float = 0.0,
+    windows: int = 4,
+    spectrum: bool = False,
+    qr_every: int = 1,
 ) -> BilliardLyapunovResult:
-    """Largest-exponent growth of billiard particles from kernel event states.
+    """Largest exponent (or the whole spectrum) of billiard particles from kernel event states.
 
     Parameters
     ----------
@@ -454,22 +582,28 @@ def billiard_lyapunov_from(
     t : float
         Measurement time (s) after the transient, split into ``windows`` equal windows.
     transient : float
-        Time (s) run first with the tangent vector but not measured (>= 0).
+        Time (s) run first with the tangent frame but not measured (>= 0).
     windows : int
         Number of windows (>= 1), for the convergence check.
+    spectrum : bool
+        Carry four tangent vectors (all four exponents) instead of one.
+    qr_every : int
+        Impact-to-impact events between two QR steps (>= 1).
 
     Returns
     -------
     BilliardLyapunovResult
         (``initial`` NaN, ``labels`` NOT_CLASSIFIED); raises ``RuntimeError`` naming the
-        particle if a kernel fails.  The tangent vector starts as ``(1, 1, 1, 1) / 2`` in
-        the section coordinates ``(theta, x, vx, vyrel)`` (rad, mm, mm/s, mm/s).
+        particle if a kernel fails.  The first tangent vector starts as ``(1, 1, 1, 1) / 2``
+        in the section coordinates ``(theta, x, vx, vyrel)`` (rad, mm, mm/s, mm/s), the
+        others (``spectrum``) as a basis of its complement.
     """
     t = _check_positive("t", t, "s")
     transient = float(transient)
     if not (math.isfinite(transient) and transient >= 0):
         raise ValueError(f"transient must be a finite number >= 0 s, got {transient}")
     windows = _check_count("windows", windows)
+    qr_every = _check_count("qr_every", qr_every)
     _check_windows(params, t, windows)
     states = np.atleast_2d(np.asarray(states, float))
     if states.ndim != 2 or states.shape[1] != 7 or not np.all(np.isfinite(states)):
@@ -477,6 +611,7 @@ def billiard_lyapunov_from(
     kp = params.kernel()
     start = time.perf_counter()
     n = states.shape[0]
+    m = 4 if spectrum else 1
     t0 = transient * params.f  # periods
     t_ends = t0 + (t * params.f) * np.arange(1, windows + 1) / windows
     log_growth = np.zeros((n, windows))
@@ -484,20 +619,25 @@ def billiard_lyapunov_from(
     collapses = np.zeros((n, windows), np.int64)
     duration = np.zeros((n, windows))
     status = np.zeros(n, np.int64)
+    spec = SpectrumWindows(
+        np.zeros((n, windows, m)), np.zeros((n, windows)), np.zeros((n, windows), np.int64),
+        np.zeros((n, windows)), np.zeros((n, windows), np.int64),
+    )  # fmt: skip
     for i in range(n):
         state = (*states[i, :6], int(states[i, 6]))
-        vec = np.full(4, 0.5)
-        scratch = TangentWindows(
-            np.zeros(1), np.zeros(1, np.int64), np.zeros(1, np.int64), np.zeros(1)
-        )
+        frame = _start_frame(m)
         st = OK
         if t0 > 0:
-            state, st = billiard_tangent_run(state, kp, np.array([t0]), vec, scratch)
+            state, st = billiard_tangent_run(
+                state, kp, np.array([t0]), frame, qr_every, *_scratch_windows(1, m)
+            )
         ends = np.full(windows, np.nan)
         first = state[0] + state[1] / TWO_PI
         if st == OK:
             out = TangentWindows(log_growth[i], collisions[i], collapses[i], ends)
-            _, st = billiard_tangent_run(state, kp, t_ends, vec, out)
+            _, st = billiard_tangent_run(
+                state, kp, t_ends, frame, qr_every, out, SpectrumWindows(*(a[i] for a in spec))
+            )
         first = min(max(first, t0), t_ends[0])  # stuck for good in the transient: from t0
         status[i] = st
         if st not in (OK, STUCK_FOREVER):
@@ -509,10 +649,26 @@ def billiard_lyapunov_from(
         log_growth=log_growth, collisions=collisions, collapses=collapses, duration=duration,
         status=status, initial=np.full((n, 3), np.nan), labels=np.full(n, NOT_CLASSIFIED),
     )  # fmt: skip
+    if spectrum:
+        arrays.update(
+            spectrum_growth=spec.log, log_det=spec.log_det, carried=spec.carried,
+            carried_time=spec.carried_time / params.f, sticks=spec.sticks,
+        )  # fmt: skip
     meta = make_meta(
-        params, wall_s=time.perf_counter() - start, n=n, t=t, transient=transient, windows=windows
-    )
+        params, wall_s=time.perf_counter() - start, n=n, t=t, transient=transient,
+        windows=windows, spectrum=spectrum, qr_every=qr_every,
+    )  # fmt: skip
     return BilliardLyapunovResult(arrays, meta)
+
+
+def _scratch_windows(n_w: int, m: int) -> tuple[TangentWindows, SpectrumWindows]:
+    """Output arrays of ``billiard_tangent_run`` for ``n_w`` windows whose numbers are dropped."""
+    return (
+        TangentWindows(np.zeros(n_w), np.zeros(n_w, np.int64), np.zeros(n_w, np.int64),
+                       np.zeros(n_w)),
+        SpectrumWindows(np.zeros((n_w, m)), np.zeros(n_w), np.zeros(n_w, np.int64),
+                        np.zeros(n_w), np.zeros(n_w, np.int64)),
+    )  # fmt: skip
 
 
 def billiard_lyapunov(
@@ -525,15 +681,18 @@ def billiard_lyapunov(
     seed: int = 0,
     classify_attractors: bool = False,
     t_classify: float | None = None,
+    spectrum: bool = False,
+    qr_every: int = 1,
 ) -> BilliardLyapunovResult:
-    """Largest Lyapunov exponent of ``n`` billiard particles from the reference box.
+    """Largest Lyapunov exponent (or all four) of ``n`` billiard particles from the reference box.
 
     The initial conditions ``(s, vx+, vy+)`` at t = 0 are those of
     ``bbdyn.ensemble.ensemble(params, n, seed=seed)`` (``initial_conditions``).  With
     ``classify_attractors`` the same initial conditions are first classified by
     ``bbdyn.classify.classify(params, t=t_classify, n=n, seed=seed)`` (``t_classify``
     defaults to ``transient + t``), whose attractor labels are stored (``by_attractor``).
-    See ``billiard_lyapunov_from`` for ``t``, ``transient`` (s) and ``windows``.
+    See ``billiard_lyapunov_from`` for ``t``, ``transient`` (s), ``windows``, ``spectrum``
+    and ``qr_every``.
 
     Examples
     --------
@@ -552,8 +711,9 @@ def billiard_lyapunov(
     else:
         ics = initial_conditions(params, n, seed)
     res = billiard_lyapunov_from(
-        params, kernel_states(params, ics), t=t, transient=transient, windows=windows
-    )
+        params, kernel_states(params, ics), t=t, transient=transient, windows=windows,
+        spectrum=spectrum, qr_every=qr_every,
+    )  # fmt: skip
     res.arrays["initial"] = ics
     res.arrays["labels"] = labels
     res.meta.update(seed=seed, wall_s=time.perf_counter() - start, classified=classify_attractors)

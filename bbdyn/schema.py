@@ -182,6 +182,25 @@ QUANTITIES: dict[str, tuple[str, str]] = {
     "window_dof": ("", "degrees of freedom of window_chi2 (windows - 1)"),
     "window_p": ("", "p-value of window_chi2 (null if untested)"),
     "windows_agree": ("", "whether window_p >= bbdyn.lyapunov.WINDOW_P_MIN: no drift detected"),
+    "spectrum_per_s": ("1/s", "all Lyapunov exponents of the billiard's section map, largest "
+                       "first (-inf: a direction collapsed by a stick)"),
+    "spectrum_per_collision": ("", "the billiard's Lyapunov exponents per collision"),
+    "free_spectrum_per_s": ("1/s", "the billiard's exponents from the growth between sticks, "
+                            "per second of the impact-to-impact events"),
+    "free_spectrum_per_event": ("", "the billiard's exponents between sticks, per "
+                                "impact-to-impact event"),
+    "spectrum_sum_per_event": ("", "sum of the billiard's exponents between sticks per "
+                               "impact-to-impact event (QR)"),
+    "log_det_per_event": ("", "mean closed-form log of the absolute determinant of the "
+                          "one-event Jacobian over the same events"),
+    "spectrum_sum_deviation": ("", "largest difference of the QR sum and the closed form per "
+                               "event over the particles"),
+    "stick_event_fraction": ("", "sticks per collision"),
+    "carried_fraction": ("", "impact-to-impact events (carried by all tangent vectors) per "
+                         "collision"),
+    "inf_exponents": ("", "most exponents -inf of a particle (3 after a stick, 4 after a "
+                      "collapse)"),
+    "qr_every": ("", "impact-to-impact events between two QR steps of the tangent frame"),
     # ---- flat ball: tongues and period doublings
     "tongues": ("", "one object per k: the k/1 tongue's edges"),
     "doublings": ("", "one object per k: the period-doubling cascade"),

@@ -174,6 +174,9 @@ CASES: list[tuple[str, list[str], str]] = [
     ("lyapunov-t-1e-300", ["lyapunov", "--f", "85.2", "--n", "2", "--t", "1e-300"], ERROR),
     ("lyapunov-t-below-windows", ["lyapunov", "--f", "85.2", "--n", "2", "--t", "0.04"], ERROR),
     ("lyapunov-flat-t-1e-300", ["lyapunov", "--flat", "--f", "85.2", "--t", "1e-300"], ERROR),
+    ("lyapunov-flat-spectrum", ["lyapunov", "--flat", "--f", "85.2", *LY, "--spectrum"], ERROR),
+    ("lyapunov-qr-every-0", ["lyapunov", "--f", "85.2", *LY, "--spectrum", "--qr-every", "0"],
+     ERROR),
     # ---- output paths: never empty, the same for every command
     ("scan-out-empty", ["scan", "--f-start", "60", "--f-stop", "60", *SIM, "--out", ""], ERROR),
     ("scene-out-empty", ["scene", "S1", "--out", ""], ERROR),

@@ -17,10 +17,10 @@ from derivation_loader import load_derivation
 from extras import require
 
 from bbdyn import Params
-from bbdyn.core.billiard_tangent import billiard_tangent_event, billiard_tangent_run
+from bbdyn.core.billiard_tangent import billiard_tangent_event
 from bbdyn.core.status import IMPACT, OK
-from bbdyn.core.tangent import TangentWindows
 from bbdyn.flat.tongues import k1_orbit
+from bbdyn.lyapunov import billiard_lyapunov_from
 
 sp = require("sympy", "derivations")
 
@@ -113,19 +113,49 @@ def test_largest_exponent_along_the_top_orbit_is_log_mu(f, k):
     assert mu > 1.0
     assert np.max(np.abs(np.linalg.eigvals(J))) == pytest.approx(mu, rel=1e-9)
     n = 400
-    vec = np.full(4, 0.5)
-    log, t_last = np.zeros(1), np.zeros(1)
-    collisions, collapses = np.zeros(1, np.int64), np.zeros(1, np.int64)
-    end = np.array([n * k + 0.5])  # periods
-    out = TangentWindows(log, collisions, collapses, t_last)
-    _, status = billiard_tangent_run(state, kp, end, vec, out)
-    assert status == OK and collisions[0] == n and collapses[0] == 0
+    res = billiard_lyapunov_from(p, [state], t=(n * k + 0.5) / p.f, windows=1)
+    log, collisions = res["log_growth"][0], res["collisions"][0]
+    assert res["status"][0] == OK and collisions[0] == n and res["collapses"].sum() == 0
     cond = np.linalg.cond(np.linalg.eig(J)[1])
     bound = 2 * math.log(cond) / n
     per_collision = log[0] / collisions[0]
     assert abs(per_collision - math.log(mu)) < bound
-    duration = (t_last[0] - o.phase_stable / (2 * math.pi)) / p.f  # s
+    duration = res["duration"][0, 0]  # s
     assert log[0] / duration == pytest.approx(math.log(mu) / o.tau, abs=bound / o.tau)
+
+
+def top_orbit_log_multipliers(p, k, sin_star):
+    """log |mu| of all four multipliers of the top orbit, largest first, in closed form: the
+    flat ball's block (trace and determinant of derivations/flat_tongues.py) and the
+    curvature block (derivations/billiard_orbit_jacobian.py)."""
+    tr, det = FLAT.k1_trace_det()
+    flat = {FLAT.alpha: p.alpha, FLAT.Gamma: p.gamma, FLAT.sin_star: sin_star, FLAT.k: k}
+    curv = {D.alpha: p.alpha, D.beta: p.beta, D.R: p.R, D.g: p.g, D.w: p.w, D.k: k}
+    blocks = (
+        np.roots([1.0, -float(tr.subs(flat)), float(det.subs(flat))]),
+        np.linalg.eigvals(np.array(D.curvature_block().subs(curv), dtype=float)),
+    )
+    return np.sort(np.log(np.abs(np.concatenate(blocks))))[::-1]
+
+
+@pytest.mark.parametrize(("f", "k", "qr_every"), [(58.0, 1, 1), (89.5, 3, 1), (89.5, 3, 5)])
+def test_all_four_exponents_along_the_top_orbit_are_the_closed_form_multipliers(f, k, qr_every):
+    """The whole spectrum (four vectors, QR every ``qr_every`` events) on the top orbit:
+    each exponent per collision within the QR bound 2 log cond(V) / n of the closed-form
+    log |mu_i|, and their sum is log (alpha^2 beta) per collision (det of one period)."""
+    p = Params(f=f)
+    state, o = orbit_state(p, k)
+    _, J = one_event(p.kernel(), state)
+    mu = top_orbit_log_multipliers(p, k, math.sin(o.phase_stable))
+    n = 400
+    res = billiard_lyapunov_from(
+        p, [state], t=(n * k + 0.5) / p.f, windows=1, spectrum=True, qr_every=qr_every
+    )
+    assert res.free()[0] and res["carried"].sum() == n
+    lam = res.spectrum("collision")[0]
+    bound = 2 * math.log(np.linalg.cond(np.linalg.eig(J)[1])) / n
+    assert np.all(np.abs(lam - mu) < bound), (lam, mu, bound)
+    assert lam.sum() == pytest.approx(math.log(p.alpha**2 * p.beta), rel=1e-9)
 
 
 def test_top_orbit_exponent_of_bbdyn_is_the_derived_multiplier():

@@ -1,4 +1,5 @@
-"""`bbdyn lyapunov --f F [MODEL] [--n N --t T --seed S] [--flat] [--json]`: Lyapunov exponents.
+"""`bbdyn lyapunov --f F [MODEL] [--n N --t T --seed S] [--spectrum] [--flat] [--json]`: Lyapunov
+exponents.
 
 The billiard (default): ``bbdyn.lyapunov.billiard_lyapunov`` runs ``n`` particles from
 the reference box with one tangent vector each (docs/lyapunov.md) and prints the largest
@@ -6,6 +7,9 @@ exponent per second and per collision with its standard error over particles, fo
 whole ensemble and, after classifying the same initial conditions with
 ``bbdyn.classify`` (skip with ``--no-classify``), for each attractor the classifier
 finds; with the largest exponent of each time window (convergence check).
+``--spectrum``: all four exponents of the billiard's section map (four tangent vectors,
+QR every ``--qr-every`` impact-to-impact events), with their sum against the closed-form
+``log |det J|`` and the sticks (each leaves one finite exponent).
 
 ``--flat``: the flat ball (``bbdyn.lyapunov.flat_lyapunov``; ``--A --alpha --g`` only):
 both exponents per second and per impact, the conditional exponents (growth between
@@ -17,7 +21,13 @@ JSON keys (docs/schema.md), both: ``version``, ``params``, ``seed``, ``model``, 
 ``lam1_per_s_se`` (1/s), ``lam1_per_collision``, ``lam1_per_collision_se``, the same with
 ``cond_`` (growth between collapses), ``collapse_fraction``, ``collision_rate`` (1/s),
 ``window_cond_lam1_per_s`` (1/s) for the ensemble; ``attractors``: a list of the same keys
-with ``attractor``, ``fraction``, ``character``; ``regime``.  Flat (``model`` "flat"):
+with ``attractor``, ``fraction``, ``character``; ``regime``; with ``--spectrum`` also
+``qr_every`` and the keys of ``BilliardLyapunovResult.spectrum_summary``
+(``spectrum_per_s``, ``spectrum_per_collision``, ``free_spectrum_per_s``,
+``free_spectrum_per_event`` with ``_se``: lists of four, largest first;
+``spectrum_sum_per_event``, ``log_det_per_event``, ``spectrum_sum_deviation``,
+``stuck_fraction``, ``stick_event_fraction``, ``carried_fraction``, ``inf_exponents``).
+Flat (``model`` "flat"):
 ``lam1_per_s``, ``lam2_per_s`` and ``cond_...`` (1/s), ``..._per_impact``, each with
 ``_se``; ``stuck_fraction``; ``impact_rate`` (1/s); ``window_cond_lam1_per_s``.  Both, with
 the window exponents (and for each attractor): ``window_chi2``, ``window_dof``, ``window_p``
@@ -37,11 +47,15 @@ from bbdyn.commands import (
 )
 from bbdyn.lyapunov import billiard_lyapunov, flat_lyapunov
 
-HELP = "Largest Lyapunov exponent of the billiard per attractor (or the flat ball's, --flat)"
+HELP = (
+    "Largest Lyapunov exponent of the billiard per attractor (all four: --spectrum; the flat "
+    "ball's: --flat)"
+)
 
 #: ``--n``: at least 2 particles for a standard error.
 n_type = integer_in("n", 2, 100_000, "the standard errors are over particles")
 windows_type = integer_in("windows", 1, 1000, "the run is split into this many windows")
+qr_every_type = integer_in("qr-every", 1, 20, "impact-to-impact events between two QR steps")
 
 
 def add_arguments(parser) -> None:
@@ -64,6 +78,16 @@ def add_arguments(parser) -> None:
         help="the flat ball instead of the billiard (uses --f --A --alpha --g; default: off)",
     )  # fmt: skip
     parser.add_argument(
+        "--spectrum", action="store_true",
+        help="billiard: all four exponents of the section map, not only the largest "
+        "(default: off)",
+    )  # fmt: skip
+    parser.add_argument(
+        "--qr-every", type=qr_every_type, default=1,
+        help="billiard --spectrum: impact-to-impact events between two QR steps "
+        "(default: %(default)s)",
+    )  # fmt: skip
+    parser.add_argument(
         "--no-classify", action="store_true",
         help="billiard: report the whole ensemble only, without classifying the attractors "
         "(default: off)",
@@ -81,6 +105,9 @@ def lyapunov_summary(args) -> dict:
 
 def flat_summary(args) -> dict:
     """The flat ball's numbers with the window exponents (keys of the Python objects)."""
+    if args.spectrum:
+        raise ValueError("--spectrum is for the billiard; the flat ball (--flat) always has "
+                         "both of its exponents: leave out --spectrum")  # fmt: skip
     params = params_from(args)
     res = flat_lyapunov(
         params, args.n, t=args.t, transient=args.transient, windows=args.windows, seed=args.seed
@@ -101,9 +128,12 @@ def billiard_summary(args) -> dict:
     classified = not args.no_classify
     res = billiard_lyapunov(
         params, args.n, t=args.t, transient=args.transient, windows=args.windows,
-        seed=args.seed, classify_attractors=classified,
+        seed=args.seed, classify_attractors=classified, spectrum=args.spectrum,
+        qr_every=args.qr_every,
     )  # fmt: skip
     out = {"model": "billiard", "f": args.f, "gamma": params.gamma}
+    if args.spectrum:
+        out["qr_every"] = args.qr_every
     out.update(t=args.t, transient=args.transient, per="attractor" if classified else "ensemble")
     out.update(res.summary())
     if classified:
@@ -149,6 +179,31 @@ def _billiard_lines(s: dict) -> list[str]:
         lines.append(f"regime {s['regime']}, unsettled fraction {s['unsettled_fraction']:.2f}")
     windows = ", ".join(f"{x:.4g}" for x in s["window_cond_lam1_per_s"])
     lines.append(f"ensemble lam1 per window (1/s): {windows}")
+    if "spectrum_per_s" in s:
+        lines += _spectrum_lines(groups)
+    return lines
+
+
+def _spectrum_lines(groups) -> list[str]:
+    """The whole spectrum of each group (``--spectrum``)."""
+    lines = [
+        "spectrum (lam1..lam4, 1/s; -inf: a direction a stick collapses), and between "
+        "sticks; sum of the exponents per event against the closed-form log|det J|"
+    ]
+
+    def four(key: str, g: dict) -> str:
+        return ", ".join(_pm(v, e) for v, e in zip(g[key], g[f"{key}_se"], strict=True))
+
+    for name, g in groups:
+        lam, free = four("spectrum_per_s", g), four("free_spectrum_per_s", g)
+        lines += [
+            f"{name:>30} spectrum: {lam}",
+            f"{'':>30} between sticks: {free}",
+            f"{'':>30} sum {_pm(g['spectrum_sum_per_event'], g['spectrum_sum_per_event_se'])}"
+            f" vs closed form {_pm(g['log_det_per_event'], g['log_det_per_event_se'])}"
+            f" per event; sticks {g['stick_event_fraction']:.3g} of the collisions, "
+            f"stuck particles {g['stuck_fraction']:.2f}",
+        ]
     return lines
 
 

@@ -88,6 +88,7 @@ floor; the largest exponent stays finite unless the particle sticks at a wedge.
 """
 
 import math
+from typing import NamedTuple
 
 import numpy as np
 from numba import njit
@@ -268,6 +269,74 @@ def chatter_stick_rows(phase, xi, vx, vyrel, kp, M):
         M[1, j] = d_xi * cr + d_S * sr + (S * cr - xi * sr) * d_ds / R
 
 
+
+@njit(cache=True, fastmath=FMA)
+def billiard_tangent_step(periods, phase, tile, xi, vx, vyrel, kind, kp, mats):
+    """``billiard_tangent_event`` that also returns the number of reflections of the event.
+
+    Returns ``(periods, phase, tile, xi, vx, vyrel, kind, status, reflections)``:
+    ``reflections`` is the number of saltation matrices in ``J`` (1 for an impact on an
+    arc, more for a wedge chain, 0 for a release), which ``event_log_det`` needs.
+    """
+    J, W, T = mats
+    if kind == STICK:
+        periods_r, phase_r, status = stick_release(periods, phase, kp)
+        for i in range(4):
+            for j in range(4):
+                J[i, j] = 0.0
+        if status != OK:
+            return periods, phase, tile, xi, 0.0, 0.0, STICK, status, 0
+        J[1, 1] = 1.0
+        if periods_r == periods and phase_r == phase:  # released at once: its time is the stick's
+            J[0, 0] = 1.0
+        return periods_r, phase_r, tile, xi, 0.0, 0.0, RELEASE, OK, 0
+
+    tau, k, xi_c, vyrel_minus, _, status = billiard_flight(phase, xi, vx, vyrel, kp)
+    if status != OK:
+        return periods, phase, tile, xi, vx, vyrel, kind, status, 0
+    section_to_flow(phase, xi, vx, vyrel, kp, J)
+    flight_flow(tau, J)
+    periods_c, phase_c = advance_phase(periods, phase, kp.w * tau)
+    sn_c, cs_c = sin_cos(phase_c)
+    nxt, status, _ = collide(periods_c, phase_c, sn_c, cs_c, tile + k, xi_c, vx, vyrel_minus, kp)
+    if status != OK:
+        return nxt.periods, nxt.phase, nxt.tile, nxt.xi, nxt.vx, nxt.vyrel, nxt.kind, status, 0
+    # the chain of reflections of collide: the first on the arc under the particle ...
+    tile_r = tile + k
+    xi_r = snap_to_wedge(xi_c, kp)
+    vx_r, vy_r = vx, vyrel_minus
+    vx_r, vy_r, vn_r, vt_r = saltation(phase_c, xi_r, vx_r, vy_r, kp, W)
+    left_multiply(W, J, T)
+    reflections = 1
+    # ... then one on the neighbour each time wedge_reflect would reflect again
+    for _ in range(64):
+        t2, x2, vx2, vy2, _, _, _ = wedge_reflect(tile_r, xi_r, vx_r, vy_r, vn_r, vt_r, kp)
+        if t2 == tile_r and x2 == xi_r and vx2 == vx_r and vy2 == vy_r:
+            break
+        tile_r = tile_r + (1.0 if xi_r > 0.0 else -1.0)
+        xi_r = -xi_r
+        vx_r, vy_r, vn_r, vt_r = saltation(phase_c, xi_r, vx_r, vy_r, kp, W)
+        left_multiply(W, J, T)
+        reflections += 1
+    out = (nxt.periods, nxt.phase, nxt.tile, nxt.xi, nxt.vx, nxt.vyrel, nxt.kind)
+    if nxt.kind == IMPACT:
+        flow_to_section(phase_c, xi_r, vx_r, vy_r, kp, W)
+        left_multiply(W, J, T)
+        return out + (OK, reflections)
+    # STICK: a chattering sum ending on the arc keeps the stick point; anything else collapses
+    half = 0.5 * kp.d
+    if abs(nxt.xi) < half and vn_r > 0.0:
+        flow_to_section(phase_c, xi_r, vx_r, vy_r, kp, W)
+        left_multiply(W, J, T)
+        chatter_stick_rows(phase_c, xi_r, vx_r, vy_r, kp, W)
+        left_multiply(W, J, T)
+        return out + (OK, reflections)
+    for i in range(4):
+        for j in range(4):
+            J[i, j] = 0.0
+    return out + (OK, reflections)
+
+
 @njit(cache=True, fastmath=FMA)
 def billiard_tangent_event(periods, phase, tile, xi, vx, vyrel, kind, kp, mats):
     """Advance the billiard by one event and write the event map's Jacobian into ``J``.
@@ -287,66 +356,91 @@ def billiard_tangent_event(periods, phase, tile, xi, vx, vyrel, kind, kp, mats):
     (periods, phase, tile, xi, vx, vyrel, kind, status)
         The next event, bitwise that of ``billiard_event``.
     """
-    J, W, T = mats
-    if kind == STICK:
-        periods_r, phase_r, status = stick_release(periods, phase, kp)
-        for i in range(4):
-            for j in range(4):
-                J[i, j] = 0.0
-        if status != OK:
-            return periods, phase, tile, xi, 0.0, 0.0, STICK, status
-        J[1, 1] = 1.0
-        if periods_r == periods and phase_r == phase:  # released at once: its time is the stick's
-            J[0, 0] = 1.0
-        return periods_r, phase_r, tile, xi, 0.0, 0.0, RELEASE, OK
+    out = billiard_tangent_step(periods, phase, tile, xi, vx, vyrel, kind, kp, mats)
+    return out[0], out[1], out[2], out[3], out[4], out[5], out[6], out[7]
 
-    tau, k, xi_c, vyrel_minus, _, status = billiard_flight(phase, xi, vx, vyrel, kp)
-    if status != OK:
-        return periods, phase, tile, xi, vx, vyrel, kind, status
-    section_to_flow(phase, xi, vx, vyrel, kp, J)
-    flight_flow(tau, J)
-    periods_c, phase_c = advance_phase(periods, phase, kp.w * tau)
-    sn_c, cs_c = sin_cos(phase_c)
-    nxt, status, _ = collide(periods_c, phase_c, sn_c, cs_c, tile + k, xi_c, vx, vyrel_minus, kp)
-    out = (nxt.periods, nxt.phase, nxt.tile, nxt.xi, nxt.vx, nxt.vyrel, nxt.kind, status)
-    if status != OK:
-        return out
-    # the chain of reflections of collide: the first on the arc under the particle ...
-    tile_r = tile + k
-    xi_r = snap_to_wedge(xi_c, kp)
-    vx_r, vy_r = vx, vyrel_minus
-    vx_r, vy_r, vn_r, vt_r = saltation(phase_c, xi_r, vx_r, vy_r, kp, W)
-    left_multiply(W, J, T)
-    # ... then one on the neighbour each time wedge_reflect would reflect again
-    for _ in range(64):
-        t2, x2, vx2, vy2, _, _, _ = wedge_reflect(tile_r, xi_r, vx_r, vy_r, vn_r, vt_r, kp)
-        if t2 == tile_r and x2 == xi_r and vx2 == vx_r and vy2 == vy_r:
-            break
-        tile_r = tile_r + (1.0 if xi_r > 0.0 else -1.0)
-        xi_r = -xi_r
-        vx_r, vy_r, vn_r, vt_r = saltation(phase_c, xi_r, vx_r, vy_r, kp, W)
-        left_multiply(W, J, T)
-    if out[6] == IMPACT:
-        flow_to_section(phase_c, xi_r, vx_r, vy_r, kp, W)
-        left_multiply(W, J, T)
-        return out
-    # STICK: a chattering sum ending on the arc keeps the stick point; anything else collapses
-    half = 0.5 * kp.d
-    if abs(out[3]) < half and vn_r > 0.0:
-        flow_to_section(phase_c, xi_r, vx_r, vy_r, kp, W)
-        left_multiply(W, J, T)
-        chatter_stick_rows(phase_c, xi_r, vx_r, vy_r, kp, W)
-        left_multiply(W, J, T)
-        return out
-    for i in range(4):
-        for j in range(4):
-            J[i, j] = 0.0
-    return out
+
+@njit(cache=True, fastmath=FMA, inline="always")
+def gap_rate(xi, vx, vyrel, kp):
+    """``hdot = vyrel + xi vx / S = R V_n / S`` just after an impact (mm/s, > 0)."""
+    return vyrel + xi * vx / arc_root(xi, kp)
+
+
+@njit(cache=True, fastmath=FMA, inline="always")
+def event_log_det(xi0, vx0, vyrel0, xi1, vx1, vyrel1, reflections, kp):
+    """``log |det J|`` of an impact-to-impact event in closed form (module docstring).
+
+    ``det E = hdot+_0 / w``, ``det C = w / hdot+_1`` and ``|det S| = alpha^2 beta`` per
+    reflection (``det B = -alpha beta`` times ``|hdot+ / hdot-| = alpha``), so
+    ``log |det J| = reflections log(alpha^2 beta) + log hdot+_0 - log hdot+_1``: from the
+    two event states and the count alone, not from the matrix.
+    """
+    restitution = math.log(kp.alpha * kp.alpha * kp.beta)
+    return (
+        reflections * restitution
+        + math.log(gap_rate(xi0, vx0, vyrel0, kp))
+        - math.log(gap_rate(xi1, vx1, vyrel1, kp))
+    )
+
+
+class SpectrumWindows(NamedTuple):
+    """Output arrays of ``billiard_tangent_run`` for the whole frame, one row per window."""
+
+    log: np.ndarray  # (n_w, m): sums of log R_ii over the carried (impact-to-impact) events
+    log_det: np.ndarray  # (n_w,): closed-form log |det J| summed over the same events (m = 4)
+    carried: np.ndarray  # int64 (n_w,): impact-to-impact events carried by the whole frame
+    carried_time: np.ndarray  # (n_w,): driving periods of the carried events
+    sticks: np.ndarray  # int64 (n_w,): STICK events
+
+
+@njit(cache=True, fastmath=FMA, inline="always", error_model="numpy")
+def frame_multiply(J, A, T):
+    """``A <- J A`` for the (4, m) frame ``A``, ``T`` a (4, m) scratch array."""
+    for c in range(A.shape[1]):
+        for i in range(4):
+            acc = 0.0
+            for k in range(4):
+                acc += J[i, k] * A[k, c]
+            T[i, c] = acc
+    for c in range(A.shape[1]):
+        for i in range(4):
+            A[i, c] = T[i, c]
+
+
+@njit(cache=True, fastmath=FMA, inline="always", error_model="numpy")
+def orthonormalise(A, logs):
+    """Gram-Schmidt (modified, twice) of the columns of ``A`` in place:
+    ``A = Q R``; writes ``log R_ii`` into ``logs[i]`` (``-inf`` for a vanishing column)."""
+    for c in range(A.shape[1]):
+        for _ in range(2 if c > 0 else 0):  # twice is enough (the projections are not in R)
+            for p in range(c):
+                dot = 0.0
+                for k in range(4):
+                    dot += A[k, p] * A[k, c]
+                for k in range(4):
+                    A[k, c] -= dot * A[k, p]
+        r = math.sqrt(A[0, c] * A[0, c] + A[1, c] * A[1, c] + A[2, c] * A[2, c] + A[3, c] * A[3, c])
+        logs[c] = math.log(r)
+        for k in range(4):
+            A[k, c] = A[k, c] / r
+
+
+@njit(cache=True, fastmath=FMA, inline="always")
+def complete_frame(A):
+    """Columns ``1, ...`` of ``A`` <- an orthonormal basis of the complement of column 0
+    (a unit vector): the columns of the Householder reflection that maps e_0 to it."""
+    s = 1.0 if A[0, 0] >= 0.0 else -1.0
+    v0, v1, v2, v3 = A[0, 0] + s, A[1, 0], A[2, 0], A[3, 0]
+    vv = v0 * v0 + v1 * v1 + v2 * v2 + v3 * v3
+    v = (v0, v1, v2, v3)
+    for c in range(1, A.shape[1]):
+        for i in range(4):
+            A[i, c] = (1.0 if i == c else 0.0) - 2.0 * v[i] * v[c] / vv
 
 
 @njit(cache=True, fastmath=FMA, error_model="numpy")
-def billiard_tangent_run(state, kp, t_ends, vec, out):
-    """Advance one particle through events with one tangent vector, window by window.
+def billiard_tangent_run(state, kp, t_ends, frame, qr_every, out, spec):
+    """Advance one particle through events with a tangent frame, window by window (QR method).
 
     Parameters
     ----------
@@ -355,13 +449,24 @@ def billiard_tangent_run(state, kp, t_ends, vec, out):
     kp : KernelParams
     t_ends : ndarray (n_windows,)
         Ends of the windows in driving periods, increasing (as ``core.tangent.flat_tangent_run``).
-    vec : ndarray (4,)
-        Unit tangent vector in section coordinates (in/out).
+    frame : ndarray (4, m)
+        Orthonormal tangent vectors in section coordinates (in/out): ``m = 1`` the largest
+        exponent, ``m = 4`` the whole spectrum.  ``frame @ R`` is ``J frame`` after each QR.
+    qr_every : int
+        Impact-to-impact events between two QR steps (>= 1; the R factors multiply, so the
+        exponents do not depend on it beyond rounding).  A stick, a release or a window's
+        end takes the QR step at once.
     out : TangentWindows
-        Per window (added to): ``log``, the sum of ``log |J v| / |v|`` over its events;
-        ``collisions`` (IMPACT and STICK events) and ``collapses`` (sticks at a wedge, where
-        ``J v = 0``; the vector restarts along the floor, ``(0, 1, 0, 0)``); ``time`` (driving
-        periods) of its last event (overwritten).
+        Column 0 through every event (the largest exponent), per window (added to):
+        ``log``, the sum of ``log R_00``; ``collisions`` (IMPACT and STICK events) and
+        ``collapses`` (sticks at a wedge, where ``J = 0``; column 0 restarts along the floor,
+        ``(0, 1, 0, 0)``); ``time`` (driving periods) of its last event (overwritten).
+    spec : SpectrumWindows
+        The whole frame over the *carried* events, those from an impact to an impact, whose
+        Jacobian is regular (added to).  A stick, and the release and flight after it, have
+        singular Jacobians (the velocity rows vanish, then all but the position; docs/
+        lyapunov.md): column 0 alone goes through them, and the columns after it restart
+        as a basis of its complement.  ``log_det`` only for ``m = 4``.
 
     Returns
     -------
@@ -373,18 +478,24 @@ def billiard_tangent_run(state, kp, t_ends, vec, out):
     """
     periods, phase, tile, xi, vx, vyrel, kind = state
     out_log, out_collisions, out_collapses, out_time = out
+    m = frame.shape[1]
     J = np.empty((4, 4))
     W = np.empty((4, 4))
     T = np.empty((4, 4))
+    A = frame.copy()
+    scratch = np.empty((4, m))
+    logs = np.empty(m)
     n_w = t_ends.shape[0]
     j = 0
     t = periods + phase / TWO_PI
     while j < n_w and t > t_ends[j]:
         j += 1
     status = OK
+    pending, pending_window, pending_det, pending_time = 0, j, 0.0, 0.0
     while j < n_w:
-        collision = kind != STICK
-        periods, phase, tile, xi, vx, vyrel, kind, status = billiard_tangent_event(
+        before = kind
+        xi0, vx0, vy0, t0 = xi, vx, vyrel, t
+        periods, phase, tile, xi, vx, vyrel, kind, status, reflections = billiard_tangent_step(
             periods, phase, tile, xi, vx, vyrel, kind, kp, (J, W, T)
         )
         if status == STUCK_FOREVER:
@@ -395,23 +506,71 @@ def billiard_tangent_run(state, kp, t_ends, vec, out):
         t = periods + phase / TWO_PI
         while j < n_w - 1 and t > t_ends[j]:
             j += 1
-        n0 = J[0, 0] * vec[0] + J[0, 1] * vec[1] + J[0, 2] * vec[2] + J[0, 3] * vec[3]
-        n1 = J[1, 0] * vec[0] + J[1, 1] * vec[1] + J[1, 2] * vec[2] + J[1, 3] * vec[3]
-        n2 = J[2, 0] * vec[0] + J[2, 1] * vec[1] + J[2, 2] * vec[2] + J[2, 3] * vec[3]
-        n3 = J[3, 0] * vec[0] + J[3, 1] * vec[1] + J[3, 2] * vec[2] + J[3, 3] * vec[3]
-        r = math.sqrt(n0 * n0 + n1 * n1 + n2 * n2 + n3 * n3)
-        if not math.isfinite(r):  # a grazing contact (V_n = 0): no derivative
-            status = NON_FINITE
-            break
-        if collision:
-            out_collisions[j] += 1
-        if r > 0.0:
-            vec[0], vec[1], vec[2], vec[3] = n0 / r, n1 / r, n2 / r, n3 / r
-            out_log[j] += math.log(r)
+        carried = before == IMPACT and kind == IMPACT
+        if pending > 0 and (not carried or j != pending_window):
+            status = _qr_step(A, logs, pending_window, out_log, spec)
+            spec.carried[pending_window] += pending
+            spec.log_det[pending_window] += pending_det
+            spec.carried_time[pending_window] += pending_time
+            pending, pending_det, pending_time = 0, 0.0, 0.0
+            if status != OK:
+                break
+        frame_multiply(J, A, scratch)
+        if carried:
+            pending += 1
+            pending_window = j
+            pending_time += t - t0
+            if m == 4:
+                pending_det += event_log_det(xi0, vx0, vy0, xi, vx, vyrel, reflections, kp)
+            if pending == qr_every:
+                status = _qr_step(A, logs, j, out_log, spec)
+                spec.carried[j] += pending
+                spec.log_det[j] += pending_det
+                spec.carried_time[j] += pending_time
+                pending, pending_det, pending_time = 0, 0.0, 0.0
+                if status != OK:
+                    break
         else:
-            out_collapses[j] += 1
-            vec[0], vec[1], vec[2], vec[3] = 0.0, 1.0, 0.0, 0.0
+            # a singular Jacobian: column 0 alone carries on, the others restart
+            r = math.sqrt(A[0, 0] * A[0, 0] + A[1, 0] * A[1, 0] + A[2, 0] * A[2, 0]
+                          + A[3, 0] * A[3, 0])  # fmt: skip
+            if not math.isfinite(r):  # a grazing contact (V_n = 0): no derivative
+                status = NON_FINITE
+                break
+            if r > 0.0:
+                for k in range(4):
+                    A[k, 0] = A[k, 0] / r
+                out_log[j] += math.log(r)
+            else:
+                out_collapses[j] += 1
+                A[0, 0], A[1, 0], A[2, 0], A[3, 0] = 0.0, 1.0, 0.0, 0.0
+            complete_frame(A)
+            if kind == STICK:
+                spec.sticks[j] += 1
+        if before != STICK:
+            out_collisions[j] += 1
         out_time[j] = t
         if t > t_ends[j]:
             j += 1
+    if pending > 0 and (status == OK or status == STUCK_FOREVER):
+        qr = _qr_step(A, logs, pending_window, out_log, spec)
+        spec.carried[pending_window] += pending
+        spec.log_det[pending_window] += pending_det
+        spec.carried_time[pending_window] += pending_time
+        status = status if qr == OK else qr
+    frame[:, :] = A
     return (periods, phase, tile, xi, vx, vyrel, kind), status
+
+
+@njit(cache=True, fastmath=FMA, inline="always", error_model="numpy")
+def _qr_step(A, logs, j, out_log, spec):
+    """The QR step of ``billiard_tangent_run``: orthonormalise ``A``, add ``log R_ii`` to
+    window ``j``; ``NON_FINITE`` for a non-finite column (a grazing contact), else ``OK``."""
+    orthonormalise(A, logs)
+    for c in range(A.shape[1]):
+        if not math.isfinite(logs[c]):
+            return NON_FINITE
+    out_log[j] += logs[0]
+    for c in range(A.shape[1]):
+        spec.log[j, c] += logs[c]
+    return OK

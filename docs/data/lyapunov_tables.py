@@ -28,10 +28,8 @@ from pathlib import Path
 import numpy as np
 
 import bbdyn
-from bbdyn.core.billiard_tangent import billiard_tangent_run
 from bbdyn.core.flat import FlatArrays, FlatState, flat_run
 from bbdyn.core.status import IMPACT
-from bbdyn.core.tangent import TangentWindows
 from bbdyn.flat.tongues import (
     find_periodic_orbit,
     k1_orbit,
@@ -39,7 +37,13 @@ from bbdyn.flat.tongues import (
     params_at_gamma,
     tongue_gamma_hi,
 )
-from bbdyn.lyapunov import billiard_lyapunov, flat_lyapunov, flat_lyapunov_from, top_orbit_exponent
+from bbdyn.lyapunov import (
+    billiard_lyapunov,
+    billiard_lyapunov_from,
+    flat_lyapunov,
+    flat_lyapunov_from,
+    top_orbit_exponent,
+)
 from bbdyn.params import Params
 
 OUT = Path(__file__).resolve().parent / "lyapunov.json"
@@ -129,12 +133,10 @@ def billiard_orbit_table() -> dict:
         p = Params(f=f)
         o = k1_orbit(p, k)
         n = 4000
-        vec, log, t_last = np.full(4, 0.5), np.zeros(1), np.zeros(1)
-        collisions, collapses = np.zeros(1, np.int64), np.zeros(1, np.int64)
         state = (0.0, o.phase_stable, 0.0, 0.0, 0.0, o.vrel, IMPACT)
-        out = TangentWindows(log, collisions, collapses, t_last)
-        billiard_tangent_run(state, p.kernel(), np.array([n * k + 0.5]), vec, out)
-        duration = (t_last[0] - o.phase_stable / (2 * math.pi)) / f
+        res = billiard_lyapunov_from(p, [state], t=(n * k + 0.5) / f, windows=1)
+        log, collisions = res["log_growth"][0], res["collisions"][0]
+        duration = res["duration"][0, 0]
         lam = top_orbit_exponent(p, k)
         excess.append(log[0] / collisions[0] - lam * k / f)
         rows.append([f"{k}/1", f"{f:g}", f"{math.exp(lam * k / f):.6f}", f"{lam * k / f:.5f}",
