@@ -12,6 +12,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from json_trees import json_close
 
 from bbdyn.core.flat import FlatArrays, FlatState, flat_run
 from bbdyn.core.plate import TWO_PI
@@ -293,27 +294,60 @@ def _committed_tables() -> dict:
     return json.loads(path.read_text())
 
 
+def _without_rounding(table: dict) -> list:
+    """The rows of a spectrum table without the column of rounding-level differences."""
+    assert table["columns"][-1] == "largest difference"
+    return [row[:-1] for row in table["rows"]]
+
+
 def test_the_docs_tables_are_what_the_code_computes():
     """docs/data/lyapunov.json (the tables of docs/lyapunov.md) is what the code computes
     now, and the page's sentence holds in it: between sticks neighbouring flat-ball states
     separate at 70 and 85.2 Hz and approach at 58 Hz."""
     script, committed = _tables_script(), _committed_tables()
     fresh = script.tables(long=False)
-    for key in ("flat", "flat_orbits", "billiard", "billiard_orbits"):
-        assert fresh[key] == committed[key], f"{key}: run {script.COMMAND}"
+    for key in ("flat", "flat_orbits", "billiard", "billiard_orbits", "billiard_spectrum_free",
+                "billiard_orbit_spectrum"):  # fmt: skip
+        assert json_close(fresh[key], committed[key]), f"{key}: run {script.COMMAND}"
+    # the spectrum without its last column, the rounding-level difference of the QR sum and
+    # the closed form (which depends on how the kernels were compiled)
+    assert _without_rounding(fresh["billiard_spectrum"]) == _without_rounding(
+        committed["billiard_spectrum"]
+    ), f"billiard_spectrum: run {script.COMMAND}"
     cond = {float(r[0]): float(r[3].split("±")[0]) for r in committed["flat"]["rows"]}
     assert cond[70.0] > 0 and cond[85.2] > 0 and cond[58.0] < 0
+    # the spectrum's sentences: every particle sticks at 70, 85.2 and 88.4 Hz (one finite
+    # exponent), the 58 Hz locked attractor never does (four finite exponents), and the QR
+    # sum is the closed form to the digits shown
+    for row in committed["billiard_spectrum"]["rows"]:
+        f, name, stuck, lam, qr, closed = row[0], row[1], row[3], row[5:9], row[9], row[10]
+        assert qr == closed, row
+        if f != "58":
+            assert stuck == "1.00" and lam[1:] == ["-inf"] * 3, row
+        elif "locked" in name:
+            assert stuck == "0.00" and "-inf" not in lam, row
 
 
 @pytest.mark.slow
 def test_longer_billiard_runs_in_the_docs_page_come_from_the_code():
-    """The convergence table of docs/lyapunov.md (n = 100, t = 50 s, transient 5 s; ~1 min)
-    and its sentence: every exponent but the 58 Hz trapped cycle agrees with the short runs
+    """The convergence tables of docs/lyapunov.md (n = 100, t = 50 s, transient 5 s; ~1 min)
+    and their sentences: every exponent but the 58 Hz trapped cycle agrees with the short runs
     within two combined standard errors; that one does not."""
-    script = _tables_script()
+    script, committed = _tables_script(), _committed_tables()
     long = script.billiard_groups(100, 50.0, 5.0)
-    assert script.billiard_table(long) == _committed_tables()["billiard_long"]
-    short = {(f, name): g for f, _, name, _, g in script.billiard_groups()}
+    assert script.billiard_table(long) == committed["billiard_long"]
+    assert _without_rounding(script.spectrum_table(long)) == _without_rounding(
+        committed["billiard_spectrum_long"]
+    )
+    assert script.free_spectrum_table(long) == committed["billiard_spectrum_free_long"]
+    short_groups = script.billiard_groups()
+    convergence = script.spectrum_convergence(short_groups, long)
+    assert convergence == committed["spectrum_convergence"]
+    # the spectrum's sentence: all but the trapped cycle agree within two combined errors
+    for f, name, z1, z_free in convergence["rows"]:
+        trapped = f == "58" and "trapped cycle" in name
+        assert (max(float(z1), float(z_free)) > 2) == trapped, (f, name, z1, z_free)
+    short = {(f, name): g for f, _, name, _, g in short_groups}
     for f, _, name, _, g in long:
         if name == "all" or (f, name) not in short:
             continue

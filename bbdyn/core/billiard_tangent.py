@@ -85,6 +85,17 @@ leaves with the floor's velocity).  A stick inside the release window ends at
 once, at the stick's own time: then ``dtheta_r = dtheta_s``, ``diag(1, 1, 0, 0)``.
 So at every stick the tangent space collapses onto the one direction along the
 floor; the largest exponent stays finite unless the particle sticks at a wedge.
+The flight after a release is singular too: the particle leaves at zero relative
+velocity where the floor's acceleration is ``-g``, so the phase column of ``E``
+vanishes (``det E = hdot / w = 0``).
+
+The frame (``billiard_tangent_run``).  ``m`` tangent vectors (1: the largest exponent,
+4: the whole spectrum) are pushed through the same ``J`` and re-orthonormalised by
+Gram-Schmidt (``J Q = Q' R``).  Over the *carried* events (impact to impact, regular
+``J``) the sums of ``log R_ii`` are kept with the closed-form ``log |det J|``
+(``event_log_det``).  Through a stick, its release and the flight after it the first
+vector alone goes on (its growth is the largest exponent's) and the others restart as
+a basis of its complement: the three exponents after it are ``-inf``.
 """
 
 import math

@@ -15,7 +15,13 @@ drawn by the ``data-table`` directive of ``docs/_ext/datavalue.py``:
 * ``billiard``: ``bbdyn lyapunov --f F`` per attractor (n = 20, t = 20 s, transient 2 s);
 * ``billiard_long``: the same with n = 100, t = 50 s, transient 5 s;
 * ``billiard_orbits``: the top orbits' closed-form exponent against a tangent run of 4000
-  collisions started on the orbit.
+  collisions started on the orbit;
+* ``billiard_spectrum``, ``billiard_spectrum_free``: the whole spectrum of the ``billiard``
+  runs (``--spectrum``), and its growth between sticks; ``..._long`` of ``billiard_long``;
+* ``billiard_orbit_spectrum``: the top orbits' four closed-form multipliers against a
+  spectrum run of 4000 collisions;
+* ``spectrum_cost``: CPU time per event of the event kernel, with one tangent vector and
+  with four (measured on the machine that runs the script).
 """
 
 from __future__ import annotations
@@ -23,17 +29,21 @@ from __future__ import annotations
 import argparse
 import json
 import math
+import time
 from pathlib import Path
 
 import numpy as np
 
 import bbdyn
+from bbdyn.core.billiard import billiard_run
 from bbdyn.core.flat import FlatArrays, FlatState, flat_run
 from bbdyn.core.status import IMPACT
+from bbdyn.ensemble import initial_conditions, kernel_states
 from bbdyn.flat.tongues import (
     find_periodic_orbit,
     k1_orbit,
     k1_orbit_numeric,
+    map_jacobian,
     params_at_gamma,
     tongue_gamma_hi,
 )
@@ -47,6 +57,9 @@ from bbdyn.lyapunov import (
 from bbdyn.params import Params
 
 OUT = Path(__file__).resolve().parent / "lyapunov.json"
+#: the tables of the longer runs (left as they are with ``--short``)
+LONG_KEYS = ("billiard_long", "billiard_spectrum_long", "billiard_spectrum_free_long",
+             "spectrum_convergence")
 COMMAND = "python docs/data/lyapunov_tables.py"
 #: the frequencies of the measured tables (Hz) and the flat orbits' alpha
 FREQUENCIES = (58.0, 70.0, 85.2, 88.4)
@@ -102,11 +115,12 @@ def flat_orbit_table() -> dict:
 
 def billiard_groups(n: int = 20, t: float = 20.0, transient: float = 2.0) -> list:
     """``(f, regime, name, fraction, summary)`` of the whole ensemble and of each attractor,
-    as ``bbdyn lyapunov --f F --n n --t t --transient transient`` (seed 0, classified)."""
+    as ``bbdyn lyapunov --f F --n n --t t --transient transient --spectrum`` (seed 0,
+    classified; the largest exponent is bitwise that of the run without ``--spectrum``)."""
     out = []
     for f in FREQUENCIES:
         res = billiard_lyapunov(Params(f=f), n, t=t, transient=transient, seed=0,
-                                classify_attractors=True)  # fmt: skip
+                                classify_attractors=True, spectrum=True)  # fmt: skip
         cls = res.meta["classification"]
         out.append((f, cls["regime"], "all", 1.0, res.summary()))
         for a in res.by_attractor():
@@ -124,6 +138,108 @@ def billiard_table(groups: list) -> dict:
              ", ".join(f"{x:.3g}" for x in g["window_cond_lam1_per_s"])]
             for f, regime, name, fraction, g in groups]  # fmt: skip
     return {"columns": BILLIARD_COLUMNS, "rows": rows}
+
+
+def spectrum_table(groups: list) -> dict:
+    """The whole spectrum of ``billiard_groups`` (1/s; -inf where a particle stuck), with the
+    sum of the exponents per impact-to-impact event against the closed-form log |det J|."""
+    rows = [[f"{f:g}", name, f"{fraction:.2f}", f"{g['stuck_fraction']:.2f}",
+             f"{g['stick_event_fraction']:.2g}",
+             *(value_se(v, e) for v, e in zip(g["spectrum_per_s"], g["spectrum_per_s_se"],
+                                              strict=True)),
+             value_se(g["spectrum_sum_per_event"], g["spectrum_sum_per_event_se"]),
+             value_se(g["log_det_per_event"], g["log_det_per_event_se"]),
+             f"{g['spectrum_sum_deviation']:.1e}"]
+            for f, _, name, fraction, g in groups]  # fmt: skip
+    columns = ["f (Hz)", "attractor", "fraction", "stuck", "sticks / collision",
+               "lambda_1 (1/s)", "lambda_2 (1/s)", "lambda_3 (1/s)", "lambda_4 (1/s)",
+               "sum / event (QR)", "log det J / event (closed form)",
+               "largest difference"]  # fmt: skip
+    deviation = max(g["spectrum_sum_deviation"] for *_, g in groups)
+    return {"columns": columns, "rows": rows, "sum_deviation_max": deviation}
+
+
+def free_spectrum_table(groups: list) -> dict:
+    """The four exponents from the growth between sticks (1/s of the impact-to-impact
+    events, and per event), and the impact-to-impact events per stick."""
+    rows = []
+    for f, _, name, _, g in groups:
+        per_stick = g["carried_fraction"] / g["stick_event_fraction"] \
+            if g["stick_event_fraction"] > 0 else math.inf
+        rows.append([f"{f:g}", name,
+                     *(value_se(v, e) for v, e in zip(g["free_spectrum_per_s"],
+                                                      g["free_spectrum_per_s_se"], strict=True)),
+                     ", ".join(f"{x:.3g}" for x in g["free_spectrum_per_event"]),
+                     "no stick" if per_stick == math.inf else f"{per_stick:.3g}"])  # fmt: skip
+    columns = ["f (Hz)", "attractor", "lambda_1 (1/s)", "lambda_2 (1/s)", "lambda_3 (1/s)",
+               "lambda_4 (1/s)", "per event", "events per stick"]  # fmt: skip
+    return {"columns": columns, "rows": rows}
+
+
+def orbit_spectrum_table() -> dict:
+    """The k/1 top orbits: the four closed-form log |mu| (flat block, curvature block)
+    against the four exponents per collision of a spectrum run of 4000 collisions."""
+    rows, errors = [], []
+    for f, k in ((58.0, 1), (88.4, 3)):
+        p = Params(f=f)
+        o = k1_orbit(p, k)
+        n = 4000
+        state = (0.0, o.phase_stable, 0.0, 0.0, 0.0, o.vrel, IMPACT)
+        res = billiard_lyapunov_from(p, [state], t=(n * k + 0.5) / f, windows=1, spectrum=True)
+        lam = res.spectrum("collision")[0]
+        mu = top_orbit_log_multipliers(p, k, math.sin(o.phase_stable))
+        errors.append(float(np.max(np.abs(lam - mu))))
+        rows.append([f"{k}/1", f"{f:g}", ", ".join(f"{x:.5f}" for x in mu),
+                     ", ".join(f"{x:.5f}" for x in lam),
+                     f"{int(res['collisions'].sum())}"])  # fmt: skip
+    columns = ["orbit", "f (Hz)", "log of abs(mu) (closed form)", "exponents / collision (run)",
+               "collisions"]  # fmt: skip
+    return {"columns": columns, "rows": rows, "error_max": max(errors)}
+
+
+def top_orbit_log_multipliers(p: Params, k: int, sin_star: float) -> np.ndarray:
+    """log |mu| of the four multipliers of the k/1 top orbit, largest first: the flat k/1
+    orbit's pair (eigenvalues of the flat ball's exact map, ``bbdyn.flat.tongues.map_jacobian``)
+    and the curvature block's ``(T +- sqrt(T^2 - 4 beta)) / 2`` (``top_orbit_exponent``)."""
+    o = k1_orbit(p, k)
+    flat = np.linalg.eigvals(map_jacobian(p, o.phase_stable, o.vrel))
+    mu_plus = math.exp(top_orbit_exponent(p, k) * k / p.f)
+    return np.sort(np.log(np.abs(np.concatenate([flat, [mu_plus, p.beta / mu_plus]]))))[::-1]
+
+
+def cost_table() -> dict:
+    """CPU time per event (microseconds) of the event kernel alone, with one tangent vector
+    and with the whole frame, on the same particles (n = 20, 20 s after 2 s, seed 0; the
+    best of three runs, kernels compiled before)."""
+    rows = []
+    for f in FREQUENCIES:
+        p = Params(f=f)
+        states = kernel_states(p, initial_conditions(p, 20, 0))
+        times = {}
+        for key, spectrum in (("largest", False), ("spectrum", True)):
+            billiard_lyapunov_from(p, states[:1], t=0.1, windows=1, spectrum=spectrum)
+            best = math.inf
+            for _ in range(3):
+                start = time.process_time()
+                res = billiard_lyapunov_from(p, states, t=20.0, transient=2.0, spectrum=spectrum)
+                best = min(best, time.process_time() - start)
+            times[key] = best
+        events = int(res["collisions"].sum())
+        kp = p.kernel()
+        best = math.inf
+        for _ in range(3):
+            start = time.process_time()
+            for s in states:
+                billiard_run((*s[:6], int(s[6])), kp, events // states.shape[0], None)
+            best = min(best, time.process_time() - start)
+        rows.append([f"{f:g}", f"{events}", f"{best / events * 1e6:.3f}",
+                     f"{times['largest'] / events * 1e6:.3f}",
+                     f"{times['spectrum'] / events * 1e6:.3f}",
+                     f"{times['spectrum'] / times['largest']:.2f}"])  # fmt: skip
+    columns = ["f (Hz)", "collisions measured", "event kernel (us / event)",
+               "largest exponent (us / event)", "spectrum (us / event)",
+               "spectrum / largest"]  # fmt: skip
+    return {"columns": columns, "rows": rows}
 
 
 def billiard_orbit_table() -> dict:
@@ -150,13 +266,45 @@ def billiard_orbit_table() -> dict:
 
 def tables(long: bool = True) -> dict:
     """Every table of the page (``billiard_long`` only with ``long``)."""
+    groups = billiard_groups()
     out = {"command": COMMAND, "bbdyn_version": bbdyn.__version__,
            "flat": flat_table(), "flat_orbits": flat_orbit_table(),
-           "billiard": billiard_table(billiard_groups()),
-           "billiard_orbits": billiard_orbit_table()}  # fmt: skip
+           "billiard": billiard_table(groups),
+           "billiard_orbits": billiard_orbit_table(),
+           "billiard_spectrum": spectrum_table(groups),
+           "billiard_spectrum_free": free_spectrum_table(groups),
+           "billiard_orbit_spectrum": orbit_spectrum_table(),
+           "spectrum_cost": cost_table()}  # fmt: skip
     if long:
-        out["billiard_long"] = billiard_table(billiard_groups(100, 50.0, 5.0))
+        long_groups = billiard_groups(100, 50.0, 5.0)
+        out["billiard_long"] = billiard_table(long_groups)
+        out["billiard_spectrum_long"] = spectrum_table(long_groups)
+        out["billiard_spectrum_free_long"] = free_spectrum_table(long_groups)
+        out["spectrum_convergence"] = spectrum_convergence(groups, long_groups)
     return out
+
+
+def _z(a: float, a_se: float, b: float, b_se: float) -> float:
+    """The difference of two estimates over their combined standard error."""
+    return abs(a - b) / math.hypot(a_se, b_se)
+
+
+def spectrum_convergence(short: list, long: list) -> dict:
+    """Short against long runs, per attractor: the z-value (difference over the combined
+    standard error) of ``lambda_1`` and the largest of the four exponents between sticks."""
+    short_by = {(f, name): g for f, _, name, _, g in short}
+    rows = []
+    for f, _, name, _, g in long:
+        if name == "all" or (f, name) not in short_by:
+            continue
+        s = short_by[(f, name)]
+        z1 = _z(g["lam1_per_s"], g["lam1_per_s_se"], s["lam1_per_s"], s["lam1_per_s_se"])
+        free = max(_z(g["free_spectrum_per_s"][i], g["free_spectrum_per_s_se"][i],
+                      s["free_spectrum_per_s"][i], s["free_spectrum_per_s_se"][i])
+                   for i in range(4))  # fmt: skip
+        rows.append([f"{f:g}", name, f"{z1:.2f}", f"{free:.2f}"])
+    columns = ["f (Hz)", "attractor", "z of lambda_1", "largest z between sticks"]
+    return {"columns": columns, "rows": rows}
 
 
 def main() -> None:
@@ -165,7 +313,10 @@ def main() -> None:
     args = parser.parse_args()
     data = tables(long=not args.short)
     if args.short and OUT.is_file():
-        data["billiard_long"] = json.loads(OUT.read_text())["billiard_long"]
+        old = json.loads(OUT.read_text())
+        for key in LONG_KEYS:
+            if key in old:
+                data[key] = old[key]
     OUT.write_text(json.dumps(data, indent=1, ensure_ascii=False) + "\n")
     print(f"saved {OUT.relative_to(Path.cwd()) if OUT.is_relative_to(Path.cwd()) else OUT}")
 
