@@ -22,6 +22,7 @@ def runs(folder: Path) -> dict[str, tuple[list[str], bool]]:
         "classify": (["classify", *TINY, "--threads", "1"], True),
         "lyapunov": (["lyapunov", *TINY, "--transient", "0.5"], True),
         "lyapunov --flat": (["lyapunov", "--flat", *TINY, "--transient", "0.5"], True),
+        "lyapunov --spectrum": (["lyapunov", *TINY, "--transient", "0.5", "--spectrum"], True),
         "scan": (["scan", "--f-start", "85", "--f-stop", "85.2", "--f-step", "0.2", "--n", "4",
                   "--t", "1", "--seed", "3", "--workers", "1", "--out", str(folder / "scan")],
                  True),
