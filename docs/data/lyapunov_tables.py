@@ -264,8 +264,9 @@ def billiard_orbit_table() -> dict:
     return {"columns": columns, "rows": rows, "excess_per_collision": max(excess)}
 
 
-def tables(long: bool = True) -> dict:
-    """Every table of the page (``billiard_long`` only with ``long``)."""
+def tables(long: bool = True, cost: bool = True) -> dict:
+    """Every table of the page (``billiard_long`` and the spectrum's long tables only with
+    ``long``, ``spectrum_cost`` only with ``cost``)."""
     groups = billiard_groups()
     out = {"command": COMMAND, "bbdyn_version": bbdyn.__version__,
            "flat": flat_table(), "flat_orbits": flat_orbit_table(),
@@ -273,8 +274,9 @@ def tables(long: bool = True) -> dict:
            "billiard_orbits": billiard_orbit_table(),
            "billiard_spectrum": spectrum_table(groups),
            "billiard_spectrum_free": free_spectrum_table(groups),
-           "billiard_orbit_spectrum": orbit_spectrum_table(),
-           "spectrum_cost": cost_table()}  # fmt: skip
+           "billiard_orbit_spectrum": orbit_spectrum_table()}  # fmt: skip
+    if cost:
+        out["spectrum_cost"] = cost_table()
     if long:
         long_groups = billiard_groups(100, 50.0, 5.0)
         out["billiard_long"] = billiard_table(long_groups)
