@@ -326,6 +326,11 @@ def test_the_docs_tables_are_what_the_code_computes():
             assert stuck == "1.00" and lam[1:] == ["-inf"] * 3, row
         elif "locked" in name:
             assert stuck == "0.00" and "-inf" not in lam, row
+            # its horizontal pair adds up to about f log beta (up to the flux term), the vertical
+            # pair to 2 f log alpha
+            p, values = Params(f=58.0), [float(x.split("±")[0]) for x in lam]
+            assert values[0] + values[1] == pytest.approx(p.f * math.log(p.beta), rel=0.1)
+            assert values[2] + values[3] == pytest.approx(2 * p.f * math.log(p.alpha), rel=0.01)
 
 
 @pytest.mark.slow
