@@ -29,6 +29,7 @@ from bbdyn.approx.jumps import JumpData
 from bbdyn.core import ensemble as core
 from bbdyn.core.status import FAILURES, FAST_FORWARD_MODES
 from bbdyn.diffusion import einstein_D
+from bbdyn.gpu import CudaJob, check_device, device_info, run_cuda
 from bbdyn.params import Params, check_params
 from bbdyn.results import Result, make_meta
 from bbdyn.runs import (
@@ -246,16 +247,12 @@ def ensembles(
     are then those of the whole run, and ``meta["batch"]`` the number of ensembles in it.
     ``progress`` gets the fraction done of the whole.
     """
-    from bbdyn.gpu import check_device, device_info
-
     check_device(device)
     if on_failure not in ON_FAILURE:
         raise ValueError(f"on_failure must be one of {ON_FAILURE}, got {on_failure!r}")
     info = device_info(device)  # NoDeviceError before anything is allocated
     jobs = [_prepare(p, seed, device, options) for p, seed in zip(params_list, seeds, strict=True)]
     if device == "cuda":
-        from bbdyn.gpu import CudaJob, run_cuda
-
         start, cpu_start = time.perf_counter(), time.process_time()
         run_cuda([CudaJob(j.params.kernel(), j.times, j.obs, j.carry.state, j.buffers)
                   for j in jobs], chunk_events=chunk_events, progress=progress)  # fmt: skip

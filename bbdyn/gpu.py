@@ -150,6 +150,7 @@ def state_bytes(n: int, n_samples: int, jump_capacity: int = 0) -> int:
 @functools.cache
 def _kernel():
     """The compiled-on-first-launch kernel (one per process)."""
+    # lazy: imports numba.cuda, which needs numba-cuda and reads NUMBA_ENABLE_CUDASIM once
     from bbdyn.core.cuda_ensemble import make_kernel
 
     return make_kernel(KernelParams)
