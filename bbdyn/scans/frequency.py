@@ -52,6 +52,7 @@ __all__ = [
     "diffusion_fit",
     "diffusion_point",
     "diffusion_points",
+    "point_seeds",
     "energy_scale",
     "frequency_grid",
     "frequency_scan",
@@ -310,25 +311,34 @@ def diffusion_points(
     transient: float | None = None,
     n_samples: int = N_SAMPLES,
     n_boot: int = 1000,
+    progress=None,
     **model,
 ) -> list[dict[str, float | np.ndarray]]:
     """``diffusion_point`` at each frequency with its seed sequence, the ensembles run
-    together (``bbdyn.ensemble.ensembles``): on the GPU (``device="cuda"``) all of them
-    in one or a few launches.  ``model``: ``A, alpha, beta, R, d`` (as ``diffusion_point``).
-    The batch form of ``diffusion_point`` for ``run_scan(..., device="cuda")``."""
+    together (``bbdyn.ensemble.ensembles``, ``progress`` its fraction done): on the GPU
+    (``device="cuda"``) all of them in one or a few launches.  ``model``: ``A, alpha, beta,
+    R, d`` (as ``diffusion_point``).  The batch form of ``diffusion_point`` for
+    ``run_scan(..., device="cuda")``."""
     changes = {k: v for k, v in model.items() if v is not None}
     params = [Params(f=f, **changes) for f in frequencies]
     n = [_check_point_arguments(p, n, t, transient, n_samples) for p in params][0]
-    seeds = [ss.spawn(2) for ss in seed_sequences]  # initial conditions, bootstrap
+    seeds = [point_seeds(ss) for ss in seed_sequences]
     times = np.linspace(0.0, float(t), int(n_samples))
     results = ensembles(
-        params,
-        # ensemble() seeds np.random.SeedSequence(seed): hand it the child's entropy words
-        [ic.generate_state(4).tolist() for ic, _ in seeds],
-        device=device, n=n, t=t, transient=transient, sample_times=times,
+        params, [ic for ic, _ in seeds], device=device, progress=progress, n=n, t=t,
+        transient=transient, sample_times=times,
     )  # fmt: skip
     return [_point_outputs(res, p, boot, n_boot) for res, p, (_, boot) in
             zip(results, params, seeds, strict=True)]  # fmt: skip
+
+
+def point_seeds(seed_sequence: np.random.SeedSequence) -> tuple[list[int], np.random.SeedSequence]:
+    """The seeds of a scan point (``bbdyn.scans.runner.point_seed``): the ``seed`` its
+    ensemble draws the initial conditions with (``ensemble()`` seeds
+    ``np.random.SeedSequence(seed)``: the entropy words of the point's first child) and the
+    bootstrap's seed sequence (the second child).  Spawns from ``seed_sequence``: call once."""
+    ic, boot = seed_sequence.spawn(2)
+    return ic.generate_state(4).tolist(), boot
 
 
 diffusion_point.batch = diffusion_points
