@@ -1,4 +1,4 @@
-"""The CUDA engine's cases in numba's CUDA simulator, run as a script by tests/test_cuda_ensemble.py.
+"""The CUDA engine's cases in numba's CUDA simulator, run as a script by test_cuda_ensemble.py.
 
 ``NUMBA_ENABLE_CUDASIM=1`` must be set before numba's CUDA module is first imported, so
 the cases run in a process of their own: ``python tests/cuda_sim_cases.py`` (with the
