@@ -540,8 +540,8 @@ class _DaskBackend:
 class _BatchFuture:
     """A point of a ``_CudaBackend`` batch: its value, then its result or error."""
 
-    def __init__(self, value: float):
-        self.value, self.out, self.error = value, None, None
+    def __init__(self, value: float, seed: int):
+        self.value, self.seed, self.out, self.error = value, seed, None, None
 
     def result(self):
         if self.error is not None:
@@ -568,8 +568,7 @@ class _CudaBackend:
         self.in_flight = MAX_BATCH_POINTS
 
     def submit(self, compute, value, seed):
-        future = _BatchFuture(value)
-        future.seed = seed
+        future = _BatchFuture(value, seed)
         self.queue.append(future)
         return future
 
