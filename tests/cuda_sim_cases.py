@@ -13,6 +13,7 @@ import json
 import math
 import os
 import sys
+import tempfile
 import warnings
 
 import numpy as np
@@ -20,6 +21,9 @@ import numpy as np
 from bbdyn import Params
 from bbdyn.core.status import ROOT_NOT_CONVERGED, STUCK_FOREVER
 from bbdyn.ensemble import ensemble, ensembles
+from bbdyn.scans.frequency import diffusion_points, frequency_scan
+from bbdyn.scans.runner import point_seed
+from bbdyn.schema import standard_key
 
 #: Non-chaotic cases: (name, params, ensemble keywords).  55 Hz: particles trapped in
 #: stick-release cycles; 58 Hz: the 1/1 locked orbit; the flat ball: a flat floor (R = 1e9
@@ -80,6 +84,23 @@ def main() -> None:
         "status": mixed["status"].tolist(), "expected": ROOT_NOT_CONVERGED,
         "n_failed": mixed.meta["n_failed"], "warned": [str(w.message) for w in caught],
     }  # fmt: skip
+    # a scan on the device: one batch, stored and loaded as the CPU's points are
+    with tempfile.TemporaryDirectory() as folder:
+        freqs = [55.0, 85.2]
+        scan = frequency_scan(freqs, out_dir=folder, n=4, t=0.3, device="cuda", progress=False)
+        direct = diffusion_points(freqs, [point_seed(0, f) for f in freqs], device="cuda", n=4,
+                                  t=0.3)  # fmt: skip
+        points = scan.meta["points"]
+        report["scan"] = {
+            "equal": [bool(np.array_equal(scan[standard_key(k)][i], v, equal_nan=True))
+                      for i, out in enumerate(direct) for k, v in out.items()],
+            "device": [p["device"] for p in points], "batch": [p["batch_points"] for p in points],
+            "cpu_share": sum(p["cpu_s"] for p in points) / points[0]["batch_cpu_s"],
+        }  # fmt: skip
+    try:
+        ensemble(Params(f=85.2), n=2, t=0.1, observables=("record",), device="cuda")
+    except ValueError as err:
+        report["record_refused"] = str(err)
     json.dump(report, sys.stdout)
 
 

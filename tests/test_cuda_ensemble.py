@@ -79,6 +79,16 @@ def test_failed_particle_is_reported_not_fatal(sim):
     assert any("1 of 2 particle(s) failed" in w for w in out["warned"])
 
 
+def test_scan_on_the_device_stores_its_batch(sim):
+    """frequency_scan(device="cuda"): the points of diffusion_points, each recording its
+    device and batch; their time shares add up to the batch's."""
+    out = sim["scan"]
+    assert out["equal"] and all(out["equal"])
+    assert out["device"] == ["cuda", "cuda"] and out["batch"] == [2, 2]
+    assert out["cpu_share"] == pytest.approx(1.0)
+    assert "CPU only" in sim["record_refused"]
+
+
 def _tiny_job(f=58.0, n=3, m=5):
     from bbdyn.core.layout import CARRY_WIDTH, CNT_WIDTH, EnsembleOut, Observables, RunTimes
 
