@@ -231,6 +231,7 @@ def ensembles(
     params_list,
     seeds,
     *,
+    t: float,
     device: str = "cpu",
     threads: int | None = None,
     on_failure: str = "keep",
@@ -248,9 +249,13 @@ def ensembles(
     ``progress`` gets the fraction done of the whole.
     """
     check_device(device)
+    unknown = sorted(set(options) - set(_OPTIONS))
+    if unknown:
+        raise TypeError(f"ensembles() got unknown options {unknown}; it takes {_OPTIONS}")
     if on_failure not in ON_FAILURE:
         raise ValueError(f"on_failure must be one of {ON_FAILURE}, got {on_failure!r}")
     info = device_info(device)  # NoDeviceError before anything is allocated
+    options["t"] = t
     jobs = [_prepare(p, seed, device, options) for p, seed in zip(params_list, seeds, strict=True)]
     if device == "cuda":
         start, cpu_start = time.perf_counter(), time.process_time()
@@ -268,6 +273,12 @@ def ensembles(
         wall, cpu = time.perf_counter() - start, time.process_time() - cpu_start
         results.append(_finish(job, wall, cpu, used_threads, on_failure, info))
     return results
+
+
+#: The options of ``ensembles``: those of ``ensemble`` that each ensemble takes.
+_OPTIONS = ("n", "box", "initial", "sample_times", "transient", "observables",
+            "jump_capacity", "record_particles", "record_window", "record_capacity",
+            "fast_forward", "max_events", "max_bytes")  # fmt: skip
 
 
 def _run_cpu(job: _Job, chunk_events, progress) -> None:
