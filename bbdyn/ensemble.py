@@ -245,7 +245,9 @@ def ensembles(
     On the CPU the ensembles run one after the other, each exactly as ``ensemble`` runs
     it.  With ``device="cuda"`` all of them go to the GPU together (``bbdyn.gpu.run_cuda``:
     the points of a scan in one or a few launches); each result's ``wall_s`` and ``cpu_s``
-    are then those of the whole run, and ``meta["batch"]`` the number of ensembles in it.
+    are then those of the whole run, ``meta["batch"]`` the number of ensembles in it,
+    ``meta["launches"]`` its kernel launches and ``meta["device_bytes"]`` the device memory
+    of its largest group of points (``bbdyn.gpu.run_cuda``).
     ``progress`` gets the fraction done of the whole.
     """
     check_device(device)
@@ -259,11 +261,11 @@ def ensembles(
     jobs = [_prepare(p, seed, device, options) for p, seed in zip(params_list, seeds, strict=True)]
     if device == "cuda":
         start, cpu_start = time.perf_counter(), time.process_time()
-        run_cuda([CudaJob(j.params.kernel(), j.times, j.obs, j.carry.state, j.buffers)
-                  for j in jobs], chunk_events=chunk_events, progress=progress)  # fmt: skip
+        stats = run_cuda([CudaJob(j.params.kernel(), j.times, j.obs, j.carry.state, j.buffers)
+                          for j in jobs], chunk_events=chunk_events, progress=progress)  # fmt: skip
         wall, cpu = time.perf_counter() - start, time.process_time() - cpu_start
-        return [_finish(j, wall, cpu, None, on_failure, {**info, "batch": len(jobs)})
-                for j in jobs]  # fmt: skip
+        info |= {"batch": len(jobs), "launches": stats["launches"], "device_bytes": stats["bytes"]}
+        return [_finish(j, wall, cpu, None, on_failure, info) for j in jobs]
     results = []
     for k, job in enumerate(jobs):
         tell = None if progress is None else (lambda x, k=k: progress((k + x) / len(jobs)))

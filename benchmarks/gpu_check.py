@@ -217,6 +217,7 @@ def run_ensembles(freqs, n: int, t: float, clock: Clock, deadline_s: float) -> d
         return out
     events = float(sum(int(r["events"].sum()) for r in results))
     gpu_wall = results[0].meta["wall_s"]  # the engine's run, common to the batch
+    out.update(launches=results[0].meta["launches"], device_bytes=results[0].meta["device_bytes"])
     out.update(done=True, wall_s=time.perf_counter() - start, gpu_wall_s=gpu_wall,
                events=events, events_per_s=events / gpu_wall,
                n_failed=int(sum(r.meta["n_failed"] for r in results)))  # fmt: skip

@@ -104,8 +104,9 @@ def report_markdown(report: dict) -> list[str]:
               _num(full["events_per_s"], ".3g"), _num(cpu["cpu_s"], ".0f"),
               _num(full.get("cpu_over_gpu_wall"), ".0f")]],
         )  # fmt: skip
-        gib = _num(full["state_bytes"] / 2**30, ".2f")
-        lines += [f"Device memory of the full scan's state: {gib} GiB.", ""]
+        gib = _num(full.get("device_bytes", full["state_bytes"]) / 2**30, ".2f")
+        launches = f" in {full['launches']} launches" if "launches" in full else ""
+        lines += [f"Device memory of the full scan's state: {gib} GiB; it ran{launches}.", ""]
     b6 = report.get("b6")
     if b6:
         done = [c for c in b6.get("centres", []) if c.get("done")]
