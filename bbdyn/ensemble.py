@@ -29,6 +29,7 @@ from bbdyn.approx.jumps import JumpData
 from bbdyn.core import ensemble as core
 from bbdyn.core.status import FAILURES, FAST_FORWARD_MODES
 from bbdyn.diffusion import einstein_D
+from bbdyn.gpu import CudaJob, check_device, device_info, run_cuda
 from bbdyn.params import Params, check_params
 from bbdyn.results import Result, make_meta
 from bbdyn.runs import (
@@ -46,7 +47,14 @@ from bbdyn.runs import (
     run_chunked,
 )
 
-__all__ = ["Box", "reference_box", "initial_conditions", "ensemble", "EnsembleResult"]
+__all__ = [
+    "Box",
+    "reference_box",
+    "initial_conditions",
+    "ensemble",
+    "ensembles",
+    "EnsembleResult",
+]
 
 OBSERVABLES = ("displacement", "energy", "jumps", "record")
 
@@ -176,6 +184,7 @@ def ensemble(
     max_bytes: float = MAX_BYTES,
     chunk_events: int | None = None,
     progress=None,
+    device: str = "cpu",
 ) -> EnsembleResult:
     """Run an ensemble of independent particles for ``t`` seconds; an ``EnsembleResult``.
 
@@ -200,46 +209,161 @@ def ensemble(
     chunks, ``progress`` is told the fraction done) on ``threads`` numba threads; the
     numbers depend on neither.
 
+    ``device="cuda"`` runs the particles on an NVIDIA GPU (``bbdyn.gpu``, docs/gpu.md): the
+    same initial conditions and event loop, one thread per particle, without fast-forward
+    (``meta["fast_forward"]`` is ``"off"``) and without ``"record"``; ``NoDeviceError``
+    without a GPU.  ``meta["device"]`` and ``meta["device_name"]`` say where it ran.
+
     >>> res = ensemble(Params(f=85.2), n=20, t=2.0, seed=1)   # doctest: +SKIP
     >>> D, D_se = res.D()                                     # doctest: +SKIP
     """
-    check_params(params)
-    run, n, ics = _check_inputs(params, t, n, box, initial, transient, observables, on_failure)
-    sample_times = _sample_times(sample_times, run.t, "displacement" in observables)
-    times, obs, mode = _kernel_inputs(params, run, sample_times, observables, fast_forward,
-                                      record_window)  # fmt: skip
-    n_rec = min(int(record_particles), n) if "record" in observables else 0
-    caps = (int(jump_capacity) if "jumps" in observables else 0, n_rec, int(record_capacity))
-    lags = core.FF_LAGS if mode != "off" else 0
-    limits = dict(params=params, n=n, t=run.t, max_events=max_events, max_bytes=max_bytes)
-    out, estimate = _allocate_outputs(n, sample_times.size, caps, lags, limits)
-    if ics is None:
-        ics = initial_conditions(params, n, seed, box)
-    carry, buffers = new_carry(kernel_states(params, ics), lags, 0), core.EnsembleOut(**out)
-    start, cpu_start = time.perf_counter(), time.process_time()
-    with numba_threads(threads) as used_threads:
-        run_chunked(
-            lambda budget: core.run_ensemble(carry, budget, params.kernel(), times, obs, buffers),
-            carry, buffers.status, times.end_periods + times.end_phase / (2 * math.pi),
-            chunk_events=chunk_events, progress=progress,
-        )  # fmt: skip
-    wall, cpu = time.perf_counter() - start, time.process_time() - cpu_start
-    failed = failed_particles(buffers.status, ics, on_failure)
-    meta = make_meta(
-        params, seed=seed, wall_s=wall, cpu_s=cpu, t=run.t, n=n, transient=run.transient,
-        window_periods=[run.p0, run.p0 + run.L], window_s=_window_s(run, params.f),
-        halves_periods=_halves(run), observables=list(observables), threads=used_threads,
-        fast_forward=mode, box=None if initial is not None else vars(box or reference_box(params)),
-        estimate=estimate, **failed,
+    options = dict(
+        t=t, n=n, box=box, initial=initial, sample_times=sample_times, transient=transient,
+        observables=observables, jump_capacity=jump_capacity, record_particles=record_particles,
+        record_window=record_window, record_capacity=record_capacity,
+        fast_forward=fast_forward, max_events=max_events, max_bytes=max_bytes,
     )  # fmt: skip
-    return EnsembleResult(_result_arrays(params, run, ics, sample_times, out, observables), meta)
+    return ensembles([params], [seed], device=device, threads=threads, on_failure=on_failure,
+                     chunk_events=chunk_events, progress=progress, **options)[0]  # fmt: skip
 
 
-def _check_inputs(params, t, n, box, initial, transient, observables, on_failure):
-    """Validate ``ensemble``'s run: its ``RunWindow``, the number of particles and the
-    explicit initial conditions (None when they are drawn from a box)."""
+def ensembles(
+    params_list,
+    seeds,
+    *,
+    t: float,
+    device: str = "cpu",
+    threads: int | None = None,
+    on_failure: str = "keep",
+    chunk_events: int | None = None,
+    progress=None,
+    **options,
+) -> list[EnsembleResult]:
+    """``ensemble(params, seed=seed, **options)`` for each pair of ``params_list`` and
+    ``seeds``; a list of ``EnsembleResult``.
+
+    On the CPU the ensembles run one after the other, each exactly as ``ensemble`` runs
+    it.  With ``device="cuda"`` all of them go to the GPU together (``bbdyn.gpu.run_cuda``:
+    the points of a scan in one or a few launches); each result's ``wall_s`` and ``cpu_s``
+    are then those of the whole run, ``meta["batch"]`` the number of ensembles in it,
+    ``meta["launches"]`` its kernel launches and ``meta["device_bytes"]`` the device memory
+    of its largest group of points (``bbdyn.gpu.run_cuda``).
+    ``progress`` gets the fraction done of the whole.
+    """
+    check_device(device)
+    unknown = sorted(set(options) - set(_OPTIONS))
+    if unknown:
+        raise TypeError(f"ensembles() got unknown options {unknown}; it takes {_OPTIONS}")
     if on_failure not in ON_FAILURE:
         raise ValueError(f"on_failure must be one of {ON_FAILURE}, got {on_failure!r}")
+    info = device_info(device)  # NoDeviceError before anything is allocated
+    options["t"] = t
+    jobs = [_prepare(p, seed, device, options) for p, seed in zip(params_list, seeds, strict=True)]
+    if device == "cuda":
+        start, cpu_start = time.perf_counter(), time.process_time()
+        stats = run_cuda([CudaJob(j.params.kernel(), j.times, j.obs, j.carry.state, j.buffers)
+                          for j in jobs], chunk_events=chunk_events, progress=progress)  # fmt: skip
+        wall, cpu = time.perf_counter() - start, time.process_time() - cpu_start
+        info |= {"batch": len(jobs), "launches": stats["launches"], "device_bytes": stats["bytes"]}
+        return [_finish(j, wall, cpu, None, on_failure, info) for j in jobs]
+    results = []
+    for k, job in enumerate(jobs):
+        tell = None if progress is None else (lambda x, k=k: progress((k + x) / len(jobs)))
+        start, cpu_start = time.perf_counter(), time.process_time()
+        with numba_threads(threads) as used_threads:
+            _run_cpu(job, chunk_events, tell)
+        wall, cpu = time.perf_counter() - start, time.process_time() - cpu_start
+        results.append(_finish(job, wall, cpu, used_threads, on_failure, info))
+    return results
+
+
+#: The options of ``ensembles``: those of ``ensemble`` that each ensemble takes.
+_OPTIONS = ("n", "box", "initial", "sample_times", "transient", "observables",
+            "jump_capacity", "record_particles", "record_window", "record_capacity",
+            "fast_forward", "max_events", "max_bytes")  # fmt: skip
+
+
+def _run_cpu(job: _Job, chunk_events, progress) -> None:
+    """Run one job's particles on the CPU (``core.run_ensemble`` in chunks)."""
+    kp, times = job.params.kernel(), job.times
+    run_chunked(
+        lambda budget: core.run_ensemble(job.carry, budget, kp, times, job.obs, job.buffers),
+        job.carry, job.buffers.status, times.end_periods + times.end_phase / (2 * math.pi),
+        chunk_events=chunk_events, progress=progress,
+    )  # fmt: skip
+
+
+@dataclass
+class _Job:
+    """One ensemble ready to run: its validated inputs, kernel arguments and output arrays."""
+
+    params: Params
+    seed: object
+    run: RunWindow
+    ics: np.ndarray
+    sample_times: np.ndarray
+    observables: tuple
+    box: Box | None
+    mode: str
+    estimate: dict
+    out: dict
+    times: tuple
+    obs: tuple
+    carry: tuple
+    buffers: tuple
+
+
+def _prepare(params: Params, seed, device: str, options: dict) -> _Job:
+    """Validate one ensemble of ``ensembles``, allocate its arrays, draw its particles."""
+    o = options
+    check_params(params)
+    observables = tuple(o.get("observables", ("displacement", "energy")))
+    run, n, ics = _check_inputs(params, o["t"], o.get("n"), o.get("box"), o.get("initial"),
+                                o.get("transient"), observables)  # fmt: skip
+    fast_forward = o.get("fast_forward", "converged")
+    if device == "cuda":
+        if "record" in observables:
+            raise ValueError("observables 'record' runs on the CPU only: leave out device")
+        fast_forward_mode(fast_forward)  # checked; the device makes every event
+        fast_forward = "off"
+    sample_times = _sample_times(o.get("sample_times"), run.t, "displacement" in observables)
+    times, obs, mode = _kernel_inputs(params, run, sample_times, observables, fast_forward,
+                                      o.get("record_window"))  # fmt: skip
+    n_rec = min(int(o.get("record_particles", 0)), n) if "record" in observables else 0
+    jump_cap = int(o.get("jump_capacity", 1024)) if "jumps" in observables else 0
+    caps = (jump_cap, n_rec, int(o.get("record_capacity", 4096)))
+    lags = core.FF_LAGS if mode != "off" else 0
+    limits = dict(params=params, n=n, t=run.t, max_events=o.get("max_events", MAX_EVENTS),
+                  max_bytes=o.get("max_bytes", MAX_BYTES))  # fmt: skip
+    out, estimate = _allocate_outputs(n, sample_times.size, caps, lags, limits)
+    box = o.get("box")
+    if ics is None:
+        ics = initial_conditions(params, n, seed, box)
+    carry = new_carry(kernel_states(params, ics), lags, 0)
+    return _Job(params, seed, run, ics, sample_times, observables,
+                None if o.get("initial") is not None else (box or reference_box(params)),
+                mode, estimate, out, times, obs, carry, core.EnsembleOut(**out))  # fmt: skip
+
+
+def _finish(job: _Job, wall, cpu, threads, on_failure, info) -> EnsembleResult:
+    """The ``EnsembleResult`` of a job that has run."""
+    failed = failed_particles(job.buffers.status, job.ics, on_failure)
+    run, params = job.run, job.params
+    meta = make_meta(
+        params, seed=job.seed, wall_s=wall, cpu_s=cpu, t=run.t, n=job.ics.shape[0],
+        transient=run.transient, window_periods=[run.p0, run.p0 + run.L],
+        window_s=_window_s(run, params.f), halves_periods=_halves(run),
+        observables=list(job.observables), threads=threads, fast_forward=job.mode,
+        box=None if job.box is None else vars(job.box), estimate=job.estimate, **info,
+        **failed,
+    )  # fmt: skip
+    arrays = _result_arrays(params, run, job.ics, job.sample_times, job.out, job.observables)
+    return EnsembleResult(arrays, meta)
+
+
+def _check_inputs(params, t, n, box, initial, transient, observables):
+    """Validate ``ensemble``'s run: its ``RunWindow``, the number of particles and the
+    explicit initial conditions (None when they are drawn from a box)."""
     unknown = set(observables) - set(OBSERVABLES)
     if unknown:
         raise ValueError(f"observables must be among {OBSERVABLES}, got {sorted(unknown)}")

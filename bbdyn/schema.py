@@ -79,6 +79,8 @@ QUANTITIES: dict[str, tuple[str, str]] = {
     "transient": ("s", "time before the averages begin"),
     "threads": ("", "numba threads of the run"),
     "fast_forward": ("", "fast-forward mode of repeating stick-release cycles"),
+    "device": ("", "where the particles ran: 'cpu' or 'cuda' (docs/gpu.md)"),
+    "device_name": ("", "the model of the CPU or GPU they ran on"),
     "nmax": ("", "highest order n of the truncated Green-Kubo sum D_n"),
     "model": ("", "'billiard' or 'flat' (the flat ball)"),
     "per": ("", "'attractor' or 'ensemble': how the Lyapunov exponents are grouped"),

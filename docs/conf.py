@@ -42,6 +42,7 @@ extensions = [
     "numpydoc",
     "gallery",
     "datavalue",
+    "devicereport",
     # MathJax 3 copied into the site's _static and loaded from there (``mathjax_path``):
     # equations, on the pages and in the notebooks, render with no network.
     "sphinx-mathjax-offline",

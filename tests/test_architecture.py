@@ -25,6 +25,7 @@ LAYERS = {
         "bbdyn.runs",
         "bbdyn.billiard",
         "bbdyn.ensemble",
+        "bbdyn.gpu",  # the CUDA engine of the ensembles
         "bbdyn.diffusion",
         "bbdyn.classify",
         "bbdyn.poincare",
@@ -83,6 +84,7 @@ CORE_ROOMS = {
         "features",
         "fast_forward",
     },
+    "bbdyn.core.cuda_ensemble": {"ensemble", "layout"},
 }
 MAX_CORE_PARAMETERS = 10
 

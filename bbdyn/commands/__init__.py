@@ -302,6 +302,15 @@ def run_progress(label: str, t: float, json_mode: bool) -> RunProgress:
     return RunProgress(label, t, None if json_mode else progress_stream(True))
 
 
+def add_device_argument(parser, what: str = "the particles") -> None:
+    """``--device {cpu,cuda}`` (``args.device``, default cpu): where ``what`` run."""
+    parser.add_argument(
+        "--device", choices=("cpu", "cuda"), default="cpu",
+        help=f"run {what} on the CPU (default) or on an NVIDIA GPU (cuda: pip install "
+        "'bbdyn[gpu]'; docs/gpu.md)",
+    )  # fmt: skip
+
+
 def add_setting_arguments(parser):
     """``--quick`` (the default), ``--medium`` and ``--full``, storing ``args.setting``;
     returns their mutually exclusive group (for further modes)."""

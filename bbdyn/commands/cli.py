@@ -23,6 +23,7 @@ import sys
 
 from bbdyn import __version__
 from bbdyn.core.status import SimulationError
+from bbdyn.gpu import NoDeviceError, cuda_device
 from bbdyn.sources import refresh_kernel_caches
 
 #: subcommand name -> module under bbdyn.commands
@@ -91,6 +92,8 @@ def explain(err: BaseException, args) -> tuple[int, str]:
     """Exit status and message (at most three lines, no traceback) for an exception of a run."""
     prog = "bbdyn" if args is None else f"bbdyn {args.command}"
     text = _one_line(err)
+    if isinstance(err, NoDeviceError):  # one line, which says what to do
+        return EXIT_FAILED, text
     if isinstance(err, ValueError | TypeError):
         return EXIT_USAGE, f"{prog}: error: {text}\n{_see_help(prog)}"
     if isinstance(err, OSError):
@@ -142,6 +145,8 @@ def main(argv: list[str] | None = None) -> int:
     try:
         try:
             args = build_parser().parse_args(argv)
+            if getattr(args, "device", "cpu") == "cuda":
+                cuda_device()  # no GPU: one line, before anything is computed or written
             refresh_kernel_caches()  # kernels compiled from other source are not reused
             return int(args._run(args) or 0)
         finally:  # also after --help: a closed pipe fails here, not at interpreter exit

@@ -1,7 +1,7 @@
 """``bbdyn reproduce [--quick|--medium|--full] [--out DIR] [--only ID ...]`` and
 ``bbdyn reproduce --docs [--only ID ...]``: scenes with an index page, or the figures of docs/."""
 
-from bbdyn.commands import add_setting_arguments, output_folder, seed
+from bbdyn.commands import add_device_argument, add_setting_arguments, output_folder, seed
 from bbdyn.scenes.reproduce import reproduce, reproduce_docs
 
 HELP = "run every available scene and write figures, their data and an index page to a folder"
@@ -20,6 +20,7 @@ def add_arguments(parser) -> None:
         help="output folder (default: out; not with --docs, which writes docs/figures)",
     )  # fmt: skip
     parser.add_argument("--seed", type=seed, default=0, help="random seed (default: 0)")
+    add_device_argument(parser, "the scans of S3-S5 and B6")
     parser.add_argument(
         "--only", nargs="*", metavar="ID", help="only these scene ids (at least one)"
     )
@@ -32,7 +33,9 @@ def run(args) -> int:
                 f"--out {args.out} cannot be used with --docs, which writes into "
                 "docs/figures of the source checkout; leave out --out or --docs"
             )
-        page = reproduce_docs(only=args.only, seed=args.seed, progress=print, scan_progress=True)
+        page = reproduce_docs(
+            only=args.only, seed=args.seed, progress=print, scan_progress=True, device=args.device
+        )
     else:
         page = reproduce(
             out_dir=args.out or "out",
@@ -41,6 +44,7 @@ def run(args) -> int:
             only=args.only,
             progress=print,
             scan_progress=True,
+            device=args.device,
         )
     print(f"index: {page}")
     return 0

@@ -1,5 +1,7 @@
 """`bbdyn scan --f-start 49.8 --f-stop 95 --f-step 0.2 --n 1000 --t 200 --out DIR`: D(f) and E(f).
 
+``--device cuda`` runs every frequency together on this machine's GPU (docs/gpu.md).
+
 Runs ``bbdyn.scans.frequency.diffusion_point`` at every frequency of the grid with
 ``bbdyn.scans.runner.run_scan``: each finished frequency is stored at once in ``DIR``;
 ``--resume`` finishes an interrupted scan.  When the scan is complete the whole scan is
@@ -15,7 +17,8 @@ d mm; f is scanned), ``seed``, ``out``, ``n``, ``t`` (s), ``points``, ``cpu_s``,
 ``E_x``, ``E_x_se``, ``E_reference`` (kg mm^2/s^2), ``energy_stationary``,
 ``stuck_fraction``, ``collision_rate`` (per particle per s), ``trapped``, ``events`` (all
 events of the point's run), ``cpu_s`` (CPU time of the worker process that ran the point,
-one numba thread) and ``wall_s`` (its wall-clock time).  The top-level ``cpu_s`` is the
+one numba thread) and ``wall_s`` (its wall-clock time; on a GPU, the point's share of its
+batch), ``device`` and ``device_name`` (where it ran).  The top-level ``cpu_s`` is the
 sum of the points' (the workers did the work), ``wall_s`` the wall-clock time of the
 command.
 """
@@ -24,6 +27,7 @@ from bbdyn.commands import (
     BILLIARD_OPTIONS,
     PARAM_DEFAULTS,
     Clock,
+    add_device_argument,
     add_model_arguments,
     duration,
     finite,
@@ -86,6 +90,7 @@ def add_arguments(parser) -> None:
         default=None,
         help="dask.distributed scheduler address (default: none, local processes)",
     )
+    add_device_argument(parser, "the scan (cuda: every frequency together, on this machine)")
     parser.add_argument("--json", action="store_true", help="print one JSON object")
     parser.add_argument(
         "--progress", type=output_file, default=None,
@@ -134,6 +139,7 @@ def resume_command(args) -> str:
     for option in ("workers", "scheduler", "progress"):
         if getattr(args, option) is not None:
             argv += [f"--{option}", str(getattr(args, option))]
+    argv += ["--device", args.device] * (args.device != "cpu")
     argv += ["--out", args.out] + ["--json"] * args.json
     return shlex.join(argv + ["--resume"] * (Path(args.out) / MANIFEST).exists())
 
@@ -191,6 +197,7 @@ def run(args) -> int:
                 scheduler=args.scheduler,
                 progress=log if log else True,
                 model=model_values(args),
+                device=args.device,
             )
     except KeyboardInterrupt:
         raise Interrupted(
@@ -242,9 +249,10 @@ def scan_output(scan, args, clock) -> dict:
     """The JSON object of a finished scan: every point with its own CPU and wall time; the
     scan's CPU time is the sum of the points' (the workers' process CPU time)."""
     times = scan.point_times()
+    where = [{k: p.get(k) for k in ("device", "device_name")} for p in scan.meta["points"]]
     rows = [
         {"f": float(f), **{k: scan[k][i].item() for k in POINT_KEYS},
-         "cpu_s": float(times["cpu_s"][i]), "wall_s": float(times["wall_s"][i])}
+         "cpu_s": float(times["cpu_s"][i]), "wall_s": float(times["wall_s"][i]), **where[i]}
         for i, f in enumerate(scan.values)
     ]  # fmt: skip
     params = {**model_values(args), "g": PARAM_DEFAULTS["g"]}  # g is not an option here

@@ -1,5 +1,5 @@
 """`bbdyn simulate --f F [--A --alpha --beta --R --d] [--n N --t T --seed S] [--fast-forward M]
-[--json]`: one run.
+[--device D] [--json]`: one run.
 
 Prints the Einstein D with its standard error (late-window MSD slope), the
 period-averaged energies, the stuck fraction and the collision rate of the
@@ -8,7 +8,8 @@ and wall time.  Progress is shown on stderr when it is a terminal (not with --js
 
 JSON keys (docs/schema.md): ``version``, ``params`` (f Hz, A mm, g mm/s^2, alpha, beta,
 R mm, d mm), ``seed``, ``gamma``, ``n``, ``t``, ``transient`` (s), ``threads``,
-``fast_forward``; ``n_ok``, ``n_failed``, ``failures``; ``D``, ``D_se`` (mm^2/s); ``E``,
+``fast_forward``, ``device``, ``device_name``; ``n_ok``, ``n_failed``, ``failures``; ``D``,
+``D_se`` (mm^2/s); ``E``,
 ``E_x``, ``E_y``, ``E_pot``, ``E_reference`` with ``_se`` (kg mm^2/s^2);
 ``stuck_fraction`` (``_se``); ``collision_rate``, ``jump_rate`` (per particle, 1/s);
 ``D_windows`` (``t_centre`` s, ``D``, ``D_se``); ``collisions``; ``cpu_s``, ``wall_s`` (s);
@@ -17,6 +18,7 @@ R mm, d mm), ``seed``, ``gamma``, ``n``, ``t``, ``transient`` (s), ``threads``,
 
 from bbdyn.commands import (
     Clock,
+    add_device_argument,
     add_ensemble_arguments,
     add_model_arguments,
     add_save_argument,
@@ -44,8 +46,10 @@ def add_arguments(parser) -> None:
     parser.add_argument(
         "--fast-forward", choices=FAST_FORWARD_MODES, default="converged",
         help="skip stick-release cycles once they repeat bit for bit (bitwise), also once "
-        "converged to 1e-12 mm (converged, the default), or never (off); docs/billiard.md"
+        "converged to 1e-12 mm (converged, the default), or never (off); docs/billiard.md; "
+        "never on a GPU"
     )  # fmt: skip
+    add_device_argument(parser)
     add_save_argument(parser)
 
 
@@ -64,6 +68,7 @@ def simulate_summary(args) -> dict:
         observables=("displacement", "energy"),
         fast_forward=args.fast_forward,
         progress=bar.update_fraction,
+        device=args.device,
     )
     bar.close()
     if args.save:
@@ -71,6 +76,7 @@ def simulate_summary(args) -> dict:
     out = {"gamma": params.gamma, "n": args.n, "t": args.t, "transient": res.meta["transient"]}
     out["threads"] = res.meta["threads"]
     out["fast_forward"] = res.meta["fast_forward"]
+    out["device"], out["device_name"] = res.meta["device"], res.meta["device_name"]
     out.update(res.summary())
     centres, D_w, se_w = einstein_D_windows(res["sample_times"], res["displacement"][res.ok])
     out["D_windows"] = {"t_centre": centres.tolist(), "D": D_w.tolist(), "D_se": se_w.tolist()}

@@ -201,7 +201,7 @@ def start_particles(states, carry_state):
 
 
 @njit(cache=True, fastmath=FMA)
-def particle_loop(carry, i, budget, kp, times, out, obs, th):
+def particle_loop(carry, i, budget, kp, times, out, obs, th, ff):
     """Integrate particle ``i`` for at most ``budget`` events toward the end; fill its outputs.
 
     The particle goes on from its loop state (row ``i`` of ``carry``: ``state``, columns
@@ -310,11 +310,12 @@ def particle_loop(carry, i, budget, kp, times, out, obs, th):
         periods, phase, tile, xi, vx, vyrel, kind = nxt
         trig = nxt_trig
         if kind == RELEASE:
-            if do_ff:
-                K, dP, dl, n_rel, k = fast_forward(particle, n_rel, nxt, trig, k)
-                periods += K * dP
-                tile += K * dl
-                trap += K * dl
+            if ff is not None:  # compiled in only where it can run
+                if do_ff:
+                    K, dP, dl, n_rel, k = fast_forward(particle, n_rel, nxt, trig, k)
+                    periods += K * dP
+                    tile += K * dl
+                    trap += K * dl
             dep_periods, dep_phase = periods, phase
             continue
         # a collision (IMPACT or STICK); an IMPACT departs at once, a STICK releases later
@@ -399,7 +400,7 @@ def run_ensemble(carry, budget, kp, times, obs, out):
             continue
         # prange's index is unsigned in the parallel loop and signed when numba first types
         # it: the same type in both, or particle_loop is compiled twice (10 s more)
-        status[i] = particle_loop(carry, np.int64(i), budget, kp, times, out, obs, None)
+        status[i] = particle_loop(carry, np.int64(i), budget, kp, times, out, obs, None, True)
 
 
 @njit(cache=True, fastmath=FMA, parallel=True)
@@ -429,4 +430,4 @@ def run_features(carry, budget, kp, times, th, out):
     for i in prange(status.shape[0]):
         if status[i] != RUNNING:
             continue
-        status[i] = particle_loop(carry, np.int64(i), budget, kp, times, out, None, th)
+        status[i] = particle_loop(carry, np.int64(i), budget, kp, times, out, None, th, None)

@@ -109,3 +109,19 @@ class EnsembleOut(NamedTuple):
     final: np.ndarray  # (n, 7): the last event before the end (``EventState`` fields)
     status: np.ndarray  # int64 (n,): RUNNING on entry to advance; then a core.status code
 
+
+#: Columns of ``PointTable.times``: end of the run (periods, phase), start ``p0`` and length
+#: ``L`` of the energy window (whole periods), and the end of its first part (the split).
+T_END_P, T_END_PH, T_P0, T_L, T_SPLIT = 0, 1, 2, 3, 4
+TIMES_WIDTH = 5
+
+
+class PointTable(NamedTuple):
+    """The points of a launch (kernel argument): rows indexed by point, ``point`` by particle."""
+
+    params: np.ndarray  # (P, number of KernelParams fields): KernelParams of each point
+    times: np.ndarray  # (P, TIMES_WIDTH): columns T_*
+    sample_periods: np.ndarray  # (P, m): the displacement's sample times, whole periods
+    sample_phase: np.ndarray  # (P, m): and phases
+    record: np.ndarray  # (2,): the (empty) record window, periods and phase
+    point: np.ndarray  # int64 (n,): the point of each particle

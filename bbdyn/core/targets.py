@@ -35,8 +35,9 @@ def cuda_missing() -> str | None:
     return None
 
 
-def cuda_ptx(func, argtypes: tuple, cc: tuple[int, int] = (9, 0)) -> str:
-    """PTX of the numba function ``func`` compiled as a CUDA device function for ``cc``.
+def cuda_ptx(func, argtypes: tuple, cc: tuple[int, int] = (9, 0), device: bool = True) -> str:
+    """PTX of the numba function ``func`` compiled as a CUDA device function for ``cc``
+    (``device=False``: as a kernel; ``func`` then a ``cuda.jit`` kernel).
 
     Without a GPU, the functions it calls are compiled for ``cc`` too (numba-cuda would
     ask the current device).
@@ -48,7 +49,7 @@ def cuda_ptx(func, argtypes: tuple, cc: tuple[int, int] = (9, 0)) -> str:
     if not cuda.is_available():
         dispatcher.get_current_device = lambda: _Device(cc)
     try:
-        ptx, _ = cuda.compile_ptx(func.py_func, argtypes, device=True, cc=cc)
+        ptx, _ = cuda.compile_ptx(func.py_func, argtypes, device=device, cc=cc)
     finally:
         dispatcher.get_current_device = current
     return ptx

@@ -39,6 +39,7 @@ def scene_folder(family: str, settings: dict, seed: int, out_dir=None) -> Path:
 
     The digest covers ``settings[k]`` for the keys ``FAMILIES[family]``, the seed, the
     package version and the digest of bbdyn's source (``bbdyn.sources.package_digest``).
+    A scan on a GPU (``settings["device"]``) has its own folder.
     ``out_dir`` defaults to ``$BBDYN_CACHE`` or ``~/.cache/bbdyn``; ``settings["scan_dir"]``
     names a folder explicitly.
     """
@@ -48,6 +49,8 @@ def scene_folder(family: str, settings: dict, seed: int, out_dir=None) -> Path:
         out_dir = os.environ.get("BBDYN_CACHE", Path.home() / ".cache" / "bbdyn")
     defining = {k: settings.get(k) for k in FAMILIES[family]}
     defining |= {"seed": seed, "version": __version__, "source": package_digest()}
+    if settings.get("device", "cpu") != "cpu":  # a GPU's scan is kept apart from the CPU's
+        defining["device"] = settings["device"]
     digest = hashlib.sha256(json.dumps(defining, sort_keys=True).encode()).hexdigest()[:12]
     return Path(out_dir) / "scans" / f"{family}_{digest}"
 
@@ -82,6 +85,7 @@ def diffusion_scan(settings: dict, seed: int, out_dir=None, progress=False):
         transient=settings.get("transient"),
         workers=settings.get("workers"),
         progress=progress,
+        device=settings.get("device", "cpu"),
     )
 
 

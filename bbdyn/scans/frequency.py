@@ -36,7 +36,7 @@ import numpy as np
 from bbdyn.core.status import STUCK_FOREVER
 from bbdyn.core.tolerances import OBS_INTEGRAL_REL_TOL, SUM_ROUND_PER_TERM
 from bbdyn.diffusion import einstein_D, einstein_D_bootstrap, einstein_D_windows, window_consistency
-from bbdyn.ensemble import ensemble
+from bbdyn.ensemble import ensembles
 from bbdyn.params import Params
 from bbdyn.runs import EVENT_COST_S, EVENTS_PER_PERIOD, check_n, check_run, check_size
 from bbdyn.scans.progress import rough_duration
@@ -51,6 +51,8 @@ __all__ = [
     "scan_cpu_forecast",
     "diffusion_fit",
     "diffusion_point",
+    "diffusion_points",
+    "point_seeds",
     "energy_scale",
     "frequency_grid",
     "frequency_scan",
@@ -295,15 +297,57 @@ def diffusion_point(
     """
     given = (("A", A), ("alpha", alpha), ("beta", beta), ("R", R), ("d", d))
     changes = {k: v for k, v in given if v is not None}
-    params = Params(f=f, **changes)
-    n = _check_point_arguments(params, n, t, transient, n_samples)
-    ic_seed, boot_seed = seed_sequence.spawn(2)
-    # ensemble() seeds np.random.SeedSequence(seed): hand it the child's entropy words
-    seed = ic_seed.generate_state(4).tolist()
-    times = np.linspace(0.0, float(t), int(n_samples))
-    res = ensemble(params, n=n, t=t, seed=seed, transient=transient, sample_times=times)
-    disp = res["displacement"]
+    options = dict(n=n, t=t, transient=transient, n_samples=n_samples, n_boot=n_boot)
+    return diffusion_points([f], [seed_sequence], **options, **changes)[0]
 
+
+def diffusion_points(
+    frequencies,
+    seed_sequences,
+    *,
+    device: str = "cpu",
+    n: int = 1000,
+    t: float = 200.0,
+    transient: float | None = None,
+    n_samples: int = N_SAMPLES,
+    n_boot: int = 1000,
+    progress=None,
+    **model,
+) -> list[dict[str, float | np.ndarray]]:
+    """``diffusion_point`` at each frequency with its seed sequence, the ensembles run
+    together (``bbdyn.ensemble.ensembles``, ``progress`` its fraction done): on the GPU
+    (``device="cuda"``) all of them in one or a few launches.  ``model``: ``A, alpha, beta,
+    R, d`` (as ``diffusion_point``).  The batch form of ``diffusion_point`` for
+    ``run_scan(..., device="cuda")``."""
+    changes = {k: v for k, v in model.items() if v is not None}
+    params = [Params(f=f, **changes) for f in frequencies]
+    n = [_check_point_arguments(p, n, t, transient, n_samples) for p in params][0]
+    seeds = [point_seeds(ss) for ss in seed_sequences]
+    times = np.linspace(0.0, float(t), int(n_samples))
+    results = ensembles(
+        params, [ic for ic, _ in seeds], device=device, progress=progress, n=n, t=t,
+        transient=transient, sample_times=times,
+    )  # fmt: skip
+    return [_point_outputs(res, p, boot, n_boot) for res, p, (_, boot) in
+            zip(results, params, seeds, strict=True)]  # fmt: skip
+
+
+def point_seeds(seed_sequence: np.random.SeedSequence) -> tuple[list[int], np.random.SeedSequence]:
+    """The seeds of a scan point (``bbdyn.scans.runner.point_seed``): the ``seed`` its
+    ensemble draws the initial conditions with (``ensemble()`` seeds
+    ``np.random.SeedSequence(seed)``: the entropy words of the point's first child) and the
+    bootstrap's seed sequence (the second child).  Spawns from ``seed_sequence``: call once."""
+    ic, boot = seed_sequence.spawn(2)
+    return ic.generate_state(4).tolist(), boot
+
+
+diffusion_point.batch = diffusion_points
+
+
+def _point_outputs(res, params: Params, boot_seed, n_boot: int) -> dict[str, float | np.ndarray]:
+    """The outputs of ``diffusion_point`` from its ensemble ``res``."""
+    f, t, n = params.f, res.meta["t"], res.meta["n"]
+    times, disp = res["sample_times"], res["displacement"]
     out: dict[str, float | np.ndarray] = {"gamma": params.gamma}
     # stuck for good before the first D window: x is constant in every window, D = 0
     # exactly (a fit would return rounding noise, and a test of it noise about noise)
@@ -434,8 +478,11 @@ def frequency_scan(
     scheduler=None,
     progress=True,
     model: dict | None = None,
+    device: str = "cpu",
 ):
     """Run ``diffusion_point`` over ``frequencies`` with ``bbdyn.scans.runner.run_scan``.
+
+    ``device="cuda"``: on this machine's GPU, all frequencies together (``run_scan``).
 
     ``model`` sets parameters other than f (``A``, ``alpha``, ``beta``, ``R``, ``d``);
     only those that differ from the ``Params`` defaults become arguments of the scan, so
@@ -464,4 +511,5 @@ def frequency_scan(
         workers=workers,
         scheduler=scheduler,
         progress=progress,
+        device=device,
     )

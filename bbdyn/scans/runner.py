@@ -49,6 +49,8 @@ from typing import Any, TextIO
 import numpy as np
 
 from bbdyn import __version__
+from bbdyn.gpu import check_device
+from bbdyn.gpu import device_info as _device_info
 from bbdyn.params import Params
 from bbdyn.results import (
     DamagedResultError,
@@ -82,6 +84,9 @@ KEY_SCALE = 10**9
 MANIFEST = "manifest.json"
 POINTS = "points"
 LOCK = "scan.lock"
+#: Most points in one GPU batch (``_CudaBackend``; the engine splits a batch that does not
+#: fit in the device's memory into several launches).
+MAX_BATCH_POINTS = 100_000
 #: Seconds to wait for a dask scheduler before giving up.
 CONNECT_TIMEOUT_S = 5.0
 #: Manifest fields that define a scan; resuming with any of them changed is refused.
@@ -380,6 +385,7 @@ def _run_point(compute: Callable, value: float, seed: int) -> tuple[dict, dict]:
     wall, cpu = time.perf_counter() - t0, time.process_time() - cpu0
     info = {"cpu_s": cpu, "wall_s": wall, "host": socket.gethostname(), "pid": os.getpid()}
     info["bbdyn_version"] = __version__
+    info.update(_device_info("cpu"))
     return out, info
 
 
@@ -531,6 +537,73 @@ class _DaskBackend:
         self.client = None
 
 
+class _BatchFuture:
+    """A point of a ``_CudaBackend`` batch: its value, then its result or error."""
+
+    def __init__(self, value: float, seed: int):
+        self.value, self.seed, self.out, self.error = value, seed, None, None
+
+    def result(self):
+        if self.error is not None:
+            raise self.error
+        return self.out
+
+
+class _CudaBackend:
+    """The points on this process's GPU: each wait runs every point submitted since the last
+    as one batch of ``compute``'s batch form (``compute.batch``, e.g. ``diffusion_points``),
+    whose ensembles share the GPU's launches (``bbdyn.ensemble.ensembles``)."""
+
+    def __init__(self, compute):
+        func = compute.func if isinstance(compute, functools.partial) else compute
+        self.batch = getattr(func, "batch", None)
+        if self.batch is None:
+            raise ValueError(
+                f"device='cuda' needs a compute function with a batch form (compute.batch, "
+                f"as diffusion_point has), got {getattr(func, '__qualname__', func)!r}"
+            )
+        self.kwargs = dict(compute.keywords) if isinstance(compute, functools.partial) else {}
+        self.args = compute.args if isinstance(compute, functools.partial) else ()
+        self.queue: list[_BatchFuture] = []
+        self.in_flight = MAX_BATCH_POINTS
+
+    def submit(self, compute, value, seed):
+        future = _BatchFuture(value, seed)
+        self.queue.append(future)
+        return future
+
+    def wait_any(self, futures):
+        batch, self.queue = self.queue, []
+        values = [f.value for f in batch]
+        seeds = [point_seed(f.seed, f.value) for f in batch]
+        cpu0, t0 = time.process_time(), time.perf_counter()
+        try:
+            outs = self.batch(values, seeds, *self.args, device="cuda", **self.kwargs)
+        except Exception as err:
+            for f in batch:
+                f.error = err
+            return set(batch)
+        wall, cpu = time.perf_counter() - t0, time.process_time() - cpu0
+        info = {"host": socket.gethostname(), "pid": os.getpid(), "bbdyn_version": __version__}
+        info.update(_device_info("cuda"), batch_points=len(batch), batch_wall_s=wall,
+                    batch_cpu_s=cpu)  # fmt: skip
+        share = _shares([out.get("events") if isinstance(out, dict) else None for out in outs])
+        for f, out, w in zip(batch, outs, share, strict=True):
+            f.out = (out, {"cpu_s": cpu * w, "wall_s": wall * w, **info})
+        return set(batch)
+
+    def close(self, interrupted: bool, running) -> None:
+        self.queue = []
+
+
+def _shares(events: list) -> np.ndarray:
+    """Each point's share of a batch's time: by its events where every point counts them,
+    else equal."""
+    if all(isinstance(e, int | float | np.number) for e in events) and sum(events) > 0:
+        return np.asarray(events, dtype=float) / float(sum(events))
+    return np.full(len(events), 1.0 / len(events))
+
+
 def _available_cores() -> int:
     if hasattr(os, "sched_getaffinity"):  # respects taskset / container CPU limits
         return len(os.sched_getaffinity(0))
@@ -555,6 +628,7 @@ def run_scan(
     scheduler=None,
     progress: bool | TextIO = True,
     name: str = "f",
+    device: str = "cpu",
 ) -> ScanResult:
     """Run ``compute`` at every value, storing each finished point at once; resumable.
 
@@ -582,6 +656,12 @@ def run_scan(
         a stream -> always there; False -> never.
     name : str
         Name of the scanned parameter (array name and file prefix), default ``"f"``.
+    device : {"cpu", "cuda"}
+        ``"cuda"``: the points run on this process's GPU, together, through ``compute``'s
+        batch form ``compute.batch(values, seed_sequences, device="cuda", **kwargs)``
+        (``diffusion_point`` has one); not with ``scheduler``.  Each point's metadata
+        records ``device`` and ``device_name``, and for a GPU batch its size and times
+        (``cpu_s`` and ``wall_s`` are the point's share of the batch, by events).
 
     Returns
     -------
@@ -605,6 +685,8 @@ def run_scan(
         isinstance(workers, bool) or not isinstance(workers, int) or workers < 1
     ):
         raise ValueError(f"workers must be an integer >= 1, got {workers!r}")
+    if check_device(device) == "cuda" and scheduler is not None:
+        raise ValueError("device='cuda' runs the scan on this machine's GPU: leave out scheduler")
     if scheduler is None:
         _check_importable(compute)
     stream = progress_stream(progress)
@@ -620,8 +702,12 @@ def run_scan(
         "compute": describe_compute(compute),
     }
     manifest = make_meta(**manifest)
-    # a cluster is reached before anything is written, so a wrong address leaves no folder
+    # a cluster or a GPU is reached before anything is written: a wrong address or a missing
+    # GPU leaves no folder
     backend = _DaskBackend(scheduler) if scheduler is not None else None
+    if device == "cuda":
+        _device_info(device)
+        backend = _CudaBackend(compute)
     try:
         with _scan_lock(out_dir):
             _prepare_out_dir(out_dir, manifest, resume)

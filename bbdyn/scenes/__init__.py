@@ -100,6 +100,11 @@ def scene_settings(scene_id: str, setting: str) -> dict:
     return dict(getattr(scene_module(scene_id), SETTINGS[setting]))
 
 
+def scene_devices(scene_id: str) -> tuple[str, ...]:
+    """Where scene ``scene_id`` can run: its module's ``DEVICES``, else the CPU only."""
+    return tuple(getattr(scene_module(scene_id), "DEVICES", ("cpu",)))
+
+
 def call_compute(module, settings: dict, seed: int, out_dir: str | Path, progress=False):
     """``module.compute(settings, ...)`` with ``seed``, ``out_dir`` and ``progress`` passed
     when it names them."""
@@ -185,6 +190,7 @@ def run_scene(
     scan_root: str | Path | None = None,
     overrides: dict | None = None,
     progress=False,
+    device: str = "cpu",
 ):
     """Compute scene ``scene_id`` at ``setting``, save its numbers and figure in ``out_dir``.
 
@@ -192,6 +198,8 @@ def run_scene(
     on scans keep them under ``scan_root`` (default ``out_dir``), so an interrupted run
     resumes.  ``overrides`` replaces some values of the setting (they are recorded);
     ``progress`` (as in ``bbdyn.scans.runner.run_scan``) goes to scenes that can show it.
+    ``device="cuda"``: the scan of a scene whose module lists it in ``DEVICES`` runs on the
+    GPU (recorded as ``settings["device"]``); ValueError for the other scenes.
     Returns ``(result, png_path)``.
     """
     import matplotlib
@@ -200,6 +208,14 @@ def run_scene(
 
     module = scene_module(scene_id)
     settings = scene_settings(scene_id, setting) | (overrides or {})
+    if device != "cpu":
+        if device not in scene_devices(scene_id):
+            raise ValueError(
+                f"scene {scene_id.upper()} runs on the CPU only (device={device!r}); the scans "
+                f"of {', '.join(s for s in SCENES if 'cuda' in scene_devices(s))} run on a GPU: "
+                "leave out --device"
+            )
+        settings["device"] = device
     out_dir = Path(out_dir)
     source = source_state()  # the code as it is when the run starts
     start = time.perf_counter()

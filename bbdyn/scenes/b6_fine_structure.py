@@ -43,7 +43,8 @@ MEDIUM = {"centres": (85.2,), "steps": _STEPS, "points": 21, "n": 15000, "t": 20
 #: docs/fine_structure.md.
 FULL = {"centres": (58.0, 70.0, 85.2, 89.0), "steps": _STEPS, "points": 21, "n": 40000,
         "t": 20.0}  # fmt: skip
-#: settings that define the scan (and its folder)
+#: Where the scan can run (``settings["device"]``; ``bbdyn.scans.runner.run_scan``).
+DEVICES = ("cpu", "cuda")
 #: environment variable naming a dask scheduler for the scan (when settings name none)
 SCHEDULER_VARIABLE = "BBDYN_SCHEDULER"
 #: bootstrap resamples per point (the bootstrap is only a cross-check of D_err)
@@ -102,9 +103,18 @@ def run_points(settings: dict, seed: int, out_dir=None, progress=False):
         out_dir=scene_folder("finestructure", settings, seed, out_dir),
         seed=seed,
         workers=settings.get("workers"),
-        scheduler=settings.get("scheduler") or os.environ.get(SCHEDULER_VARIABLE) or None,
+        scheduler=_scheduler(settings),
         progress=progress,
+        device=settings.get("device", "cpu"),
     )
+
+
+def _scheduler(settings: dict):
+    """The dask scheduler of the scan: ``settings["scheduler"]``, else ``$BBDYN_SCHEDULER``;
+    none for a scan on the GPU (``settings["device"]``)."""
+    if settings.get("device", "cpu") != "cpu":
+        return None
+    return settings.get("scheduler") or os.environ.get(SCHEDULER_VARIABLE) or None
 
 
 def compute(

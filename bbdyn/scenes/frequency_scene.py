@@ -24,6 +24,8 @@ __all__ = ["D_ZERO", "FULL", "QUICK", "SCENE_KEYS", "FrequencyScanScene", "scan_
 #: far below the D of one particle of 1000 moving 1 mm in 200 s (1 / (2 1000 200) = 2.5e-6).
 D_ZERO = 1e-9
 
+#: Where the shared scan can run (``settings["device"]``, ``bbdyn.scans.frequency_scan``).
+DEVICES = ("cpu", "cuda")
 #: Settings of the shared scan, those of S3, S4 and S5: the grid (Hz), particles, time (s).
 QUICK = {"f_start": 49.8, "f_stop": 95.0, "f_step": 1.0, "n": 100, "t": 20.0}
 FULL = {"f_start": 49.8, "f_stop": 95.0, "f_step": 0.2, "n": 1000, "t": 200.0}

@@ -20,6 +20,7 @@ from bbdyn.scenes import (
     SCENES,
     SOURCE_ROOT,
     run_scene,
+    scene_devices,
     scene_module,
     scene_settings,
     setting_names,
@@ -105,6 +106,11 @@ def cost_lines(ids: Iterable[str], setting: str, root: str | Path = SOURCE_ROOT)
     return lines
 
 
+def _device_of(scene_id: str, device: str) -> str:
+    """``device`` for a scene that can run there, else the CPU."""
+    return device if device in scene_devices(scene_id) else "cpu"
+
+
 def reproduce(
     out_dir: str | Path = "out",
     *,
@@ -113,13 +119,15 @@ def reproduce(
     only: Iterable[str] | None = None,
     progress: Callable[[str], None] | None = None,
     scan_progress=False,
+    device: str = "cpu",
 ) -> Path:
     """Run the scenes at ``setting`` (the ids in ``only``, or else every scene that has
     ``setting``), save figures and data in ``out_dir``; return its ``index.md``, which lists
     every scene saved there (those not rerun keep their entries).  A scene in ``only``
     without ``setting`` raises before anything runs.  ``progress`` receives the cost
     estimate (``cost_lines``) first, then a line per finished scene; ``scan_progress`` goes
-    to the scans (as in ``bbdyn.scans.runner.run_scan``)."""
+    to the scans (as in ``bbdyn.scans.runner.run_scan``).  ``device="cuda"`` runs the scans
+    of the scenes that can (``scene_devices``) on the GPU, the others on the CPU."""
     out_dir = Path(out_dir)
     if only is None:
         ids = [s for s in SCENES if setting in setting_names(s)]
@@ -132,8 +140,9 @@ def reproduce(
             progress(f"cost estimate: {line}")
     for scene_id in ids:
         result, png = run_scene(
-            scene_id, setting=setting, out_dir=out_dir, seed=seed, progress=scan_progress
-        )
+            scene_id, setting=setting, out_dir=out_dir, seed=seed, progress=scan_progress,
+            device=_device_of(scene_id, device),
+        )  # fmt: skip
         if progress:
             progress(f"{scene_id}: {png} ({result.meta['scene_wall_s']:.1f} s)")
     return write_index(out_dir)
@@ -146,12 +155,13 @@ def reproduce_docs(
     root: str | Path = SOURCE_ROOT,
     progress: Callable[[str], None] | None = None,
     scan_progress=False,
+    device: str = "cpu",
 ) -> Path:
     """Make the figures of ``<root>/docs/figures`` (``DOCS_FIGURES``; all, or the ids in
     ``only``) and rewrite the figure table of ``<root>/docs/results.md``; return its path.
 
     Scans behind the scan scenes are kept in ``<root>/out/scans``, so an interrupted run
-    resumes when the same command is given again.
+    resumes when the same command is given again.  ``device`` as in ``reproduce``.
     """
     root = Path(root)
     results_md, figures = root / "docs" / "results.md", root / "docs" / "figures"
@@ -171,6 +181,7 @@ def reproduce_docs(
             scan_root=root / "out",
             overrides=DOCS_OVERRIDES.get(scene_id),
             progress=scan_progress,
+            device=_device_of(scene_id, device),
         )
         if progress:
             progress(f"{scene_id}: {png} ({result.meta['scene_wall_s']:.1f} s)")

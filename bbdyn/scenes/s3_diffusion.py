@@ -15,10 +15,10 @@ from bbdyn.scans.cache import grid_cpu_forecast
 from bbdyn.scans.frequency import P_FLAG
 from bbdyn.scenes import figure_axes
 from bbdyn.scenes.b1_regime_map import draw_regime_strip
-from bbdyn.scenes.frequency_scene import FULL, QUICK, FrequencyScanScene, scan_scene
+from bbdyn.scenes.frequency_scene import DEVICES, FULL, QUICK, FrequencyScanScene, scan_scene
 
 TITLE = "Diffusion coefficient D(f) with standard errors and the k/1 tongues"
-__all__ = ["TITLE", "QUICK", "FULL", "compute", "cost", "draw", "key_numbers"]
+__all__ = ["TITLE", "QUICK", "FULL", "DEVICES", "compute", "cost", "draw", "key_numbers"]
 
 
 def compute(settings: dict, seed: int = 0, out_dir=None, progress=False) -> FrequencyScanScene:

@@ -11,10 +11,10 @@ import numpy as np
 
 from bbdyn.scans.frequency import P_FLAG
 from bbdyn.scenes import figure_axes
-from bbdyn.scenes.frequency_scene import FULL, QUICK, FrequencyScanScene, scan_scene
+from bbdyn.scenes.frequency_scene import DEVICES, FULL, QUICK, FrequencyScanScene, scan_scene
 
 TITLE = "Steady-state horizontal kinetic energy E_x(f)"
-__all__ = ["TITLE", "QUICK", "FULL", "compute", "draw"]
+__all__ = ["TITLE", "QUICK", "FULL", "DEVICES", "compute", "draw"]
 
 
 def compute(settings: dict, seed: int = 0, out_dir=None, progress=False) -> FrequencyScanScene:
