@@ -347,6 +347,8 @@ class _Record:
         self.collisions = 0
 
     def add(self, ens, params, p0):
+        if "record" not in ens.arrays:  # a batch after the recorded particles
+            return
         for i in range(ens["record"].shape[0]):
             rec = ens["record"][i, : min(int(ens["record_n"][i]), self.capacity)]
             rec = rec[np.isin(rec[:, 6], (IMPACT, STICK))]
