@@ -25,7 +25,7 @@ the arc by the sum's drift: its few-nanosecond tail is integrated, like every ob
 the ensemble kernel, as part of the flight that ends in it, and the drift (nanometres)
 puts x(t) on the STICK point at that time.  x(t) is thus exact at every event time and
 linear in between; ``bin_velocities`` and ``exact_correlation`` take it as such (knots
-``(t_i, x_i)``), and ``segment_velocities`` gives the slope of each interval.
+``(t_i, x_i)``).
 
 ``C`` is computed on a grid of ``h = period / bins_per_period``.  The ensemble kernel
 evaluates x exactly at the grid times ``s_k`` (``EnsembleResult["displacement"]``), so
@@ -72,9 +72,9 @@ __all__ = [
     "bin_velocities",
     "correlations",
     "exact_correlation",
+    "grid_times",
     "jump_lengths",
     "lag_moments",
-    "segment_velocities",
     "binned_correlation",
     "pull",
 ]
@@ -92,16 +92,6 @@ HIST_SIGMAS, HIST_TILES = 6.0, 2.0
 DENSE_LAGS_S = 1.0
 #: Lags (log-spaced, one period to a third of the window) of the kurtosis curve.
 N_KURTOSIS_LAGS = 16
-
-
-def segment_velocities(t: np.ndarray, x: np.ndarray) -> np.ndarray:
-    """Velocity (mm/s) of each interval of a piecewise linear x(t): ``dx / dt`` between
-    consecutive knots ``(t_i, x_i)`` (s, mm; t non-decreasing); 0 for an interval of zero
-    length (a wedge collapse or release at once).  Shape ``(len(t) - 1,)``."""
-    dt, dx = np.diff(t), np.diff(x)
-    out = np.zeros(dt.shape)
-    np.divide(dx, dt, out=out, where=dt > 0)
-    return out
 
 
 def bin_velocities(t: np.ndarray, x: np.ndarray, grid: np.ndarray) -> np.ndarray:
@@ -217,7 +207,7 @@ class CorrelationResult(Result):
         return ax
 
 
-def _grid(params: Params, p0: float, p1: float, bins_per_period: int) -> np.ndarray:
+def grid_times(params: Params, p0: float, p1: float, bins_per_period: int) -> np.ndarray:
     """Grid times (s) from ``p0`` to ``p1`` whole periods, ``bins_per_period`` per period."""
     k = np.arange(int(round((p1 - p0) * bins_per_period)) + 1)
     return (p0 + k / bins_per_period) / params.f
@@ -292,7 +282,7 @@ def correlations(
     einstein = ensemble(params, n=n, t=run.t, transient=run.transient, seed=[seed, 0],
                         threads=threads)  # fmt: skip
     D_E, D_E_se = einstein.D()
-    grid = _grid(params, p0, p1, bins_per_period)
+    grid = grid_times(params, p0, p1, bins_per_period)
     P_lags = np.unique(np.rint(times / h).astype(int))
     k_lags = np.unique(np.rint(np.geomspace(bins_per_period, len(grid) / 3, N_KURTOSIS_LAGS)))
     k_lags = k_lags.astype(int)
