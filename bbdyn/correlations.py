@@ -61,7 +61,6 @@ import time
 import numpy as np
 
 from bbdyn.billiard import xi_at_arc_length
-from bbdyn.core.status import IMPACT, STICK
 from bbdyn.ensemble import ensemble, initial_conditions
 from bbdyn.params import Params, check_params
 from bbdyn.results import Result, make_meta
@@ -72,6 +71,7 @@ __all__ = [
     "bin_velocities",
     "correlations",
     "exact_correlation",
+    "gk_running",
     "grid_times",
     "jump_lengths",
     "lag_moments",
@@ -140,6 +140,15 @@ def binned_correlation(V: np.ndarray, n_lags: int) -> np.ndarray:
     head = np.fft.rfft(V[:, :n_orig], size, axis=1)
     corr = np.fft.irfft(np.conj(head) * full, size, axis=1)[:, :n_lags]
     return corr / n_orig
+
+
+def gk_running(c: np.ndarray, h: float) -> np.ndarray:
+    """The Green-Kubo integral (mm^2/s) of binned correlations ``c`` (mm^2/s^2, rows of
+    ``c_0 .. c_M`` on lags ``m h``, h in s) for each cutoff m: ``h (c_0 / 2 + c_1 + ... +
+    c_m)``, i.e. ``int C(tau) w(tau) dtau`` with weight 1 up to ``m h`` and a linear taper to
+    0 at ``(m + 1) h`` (the bin triangles sum to one).  Same shape as ``c``."""
+    c = np.asarray(c, float)
+    return h * (np.cumsum(c, axis=-1) - 0.5 * c[..., :1])
 
 
 def lag_moments(X: np.ndarray, lag: int) -> tuple[np.ndarray, np.ndarray]:
@@ -340,8 +349,8 @@ class _Record:
         if "record" not in ens.arrays:  # a batch after the recorded particles
             return
         for i in range(ens["record"].shape[0]):
+            # the record holds the collisions (IMPACT, STICK), not the releases
             rec = ens["record"][i, : min(int(ens["record_n"][i]), self.capacity)]
-            rec = rec[np.isin(rec[:, 6], (IMPACT, STICK))]
             self.collisions += rec.shape[0]
             self.xi.append(rec[:, 3])
             self.jumps.append(jump_lengths(rec[:, 2]))
@@ -382,8 +391,7 @@ class _Accumulator:
         rows = slice(self.row, self.row + X.shape[0])
         self.row += X.shape[0]
         C = binned_correlation(np.diff(X, axis=1) / h, self.sums.shape[1])
-        # GK integral per particle, weight 1 up to m h: h (c_0 / 2 + sum_{1..m} c_j)
-        running = h * (np.cumsum(C, axis=1) - 0.5 * C[:, :1])
+        running = gk_running(C, h)  # per particle, each cutoff
         self.sums += np.stack([C.sum(0), (C * C).sum(0), running.sum(0), (running**2).sum(0)])
         # and its Cesaro form: averaged over the cutoffs in [T / 2, T]
         self.gk[rows] = np.stack([running[:, -1], running[:, C.shape[1] // 2 :].mean(1)], 1)
