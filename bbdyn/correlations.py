@@ -71,6 +71,7 @@ __all__ = [
     "bin_velocities",
     "correlations",
     "exact_correlation",
+    "excess_kurtosis",
     "gk_running",
     "grid_times",
     "jump_lengths",
@@ -165,7 +166,7 @@ def jump_lengths(tile: np.ndarray) -> np.ndarray:
     return np.abs(np.diff(np.asarray(tile, float))).astype(np.int64)
 
 
-def _jackknife_kurtosis(m2: np.ndarray, m4: np.ndarray) -> tuple[float, float]:
+def excess_kurtosis(m2: np.ndarray, m4: np.ndarray) -> tuple[float, float]:
     """Excess kurtosis ``<dx^4> / <dx^2>^2 - 3`` of per-particle moments and its jackknife
     standard error over particles."""
     n = m2.size
@@ -408,7 +409,7 @@ class _Accumulator:
         n = self.gk.shape[0]
         mean = self.sums[0::2] / n
         se = np.sqrt(np.maximum(self.sums[1::2] / n - mean**2, 0.0) / (n - 1))
-        kurt = np.array([_jackknife_kurtosis(self.k_m2[:, j], self.k_m4[:, j])
+        kurt = np.array([excess_kurtosis(self.k_m2[:, j], self.k_m4[:, j])
                          for j in range(len(k_lags))])  # fmt: skip
         keep = _thin(mean.shape[1], int(round(DENSE_LAGS_S / h)))
         arrays = {

@@ -22,8 +22,10 @@ from bbdyn.correlations import (
     binned_correlation,
     correlations,
     exact_correlation,
+    excess_kurtosis,
     gk_running,
     grid_times,
+    lag_moments,
 )
 from bbdyn.ensemble import ensemble, initial_conditions
 from bbdyn.results import load_result
@@ -85,23 +87,35 @@ def telegraph_knots(v, rate, t_end, rng):
 
 
 def test_green_kubo_of_a_telegraph_walk_is_its_known_D():
-    """The binned estimator's GK integral (weights h (c_0 / 2 + c_1 + ... + c_M)) on a walk
-    whose D is known; each particle an independent estimate."""
+    """The binned estimator on a walk whose D is known, with bins as long as a third of the
+    correlation time: c_0 is C smoothed by the bin triangle, yet the GK integral (weights
+    h (c_0 / 2 + c_1 + ... + c_M)) has no bias; each particle an independent estimate."""
     rng = np.random.default_rng(7)
-    v, rate, t_end, h, cutoff = 30.0, 20.0, 40.0, 1e-3, 0.5
+    v, rate, t_end, h, cutoff = 30.0, 20.0, 40.0, 0.01, 0.5
     grid = np.arange(0.0, t_end + h / 2, h)
     M = int(round(cutoff / h))
-    per_particle = []
-    for _ in range(40):
-        t, x = telegraph_knots(v, rate, t_end, rng)
-        c = binned_correlation(bin_velocities(t, x, grid), M + 1)[0]
-        per_particle.append(gk_running(c, h)[-1])
-        # the binned C is the exact C smoothed by the bin triangle: close to v^2 e^{-2 r tau}
-        assert c[0] == pytest.approx(v * v, rel=0.05)
+    c = np.array([binned_correlation(bin_velocities(*telegraph_knots(v, rate, t_end, rng), grid),
+                                     M + 1)[0] for _ in range(40)])  # fmt: skip
+    ah = 2 * rate * h  # int v^2 e^{-2 r |tau|} Lambda_h(tau) dtau
+    assert c[:, 0].mean() == pytest.approx(v * v * 2 * (ah - 1 + math.exp(-ah)) / ah**2, rel=0.02)
+    per_particle = gk_running(c, h)[:, -1]
     D = v * v / (2 * rate) * (1 - math.exp(-2 * rate * cutoff))
-    est, se = np.mean(per_particle), np.std(per_particle, ddof=1) / math.sqrt(40)
+    est, se = per_particle.mean(), per_particle.std(ddof=1) / math.sqrt(40)
     assert abs(est - D) < 3 * se, (est, D, se)
     assert se < 0.05 * D
+
+
+def test_kurtosis_of_a_telegraph_walk():
+    """Over a lag much shorter than the time between flips the displacement is +-v tau (a
+    two-point law, excess kurtosis -2); over a lag much longer, nearly Gaussian (0)."""
+    rng = np.random.default_rng(3)
+    v, rate, t_end, h = 30.0, 20.0, 40.0, 1e-3
+    grid = np.arange(0.0, t_end + h / 2, h)
+    X = np.array([np.interp(grid, *telegraph_knots(v, rate, t_end, rng)) for _ in range(30)])
+    k_short, _ = excess_kurtosis(*lag_moments(X, 1))
+    assert k_short == pytest.approx(-2.0, abs=0.03)  # a flip in 2 % of the bins: +0.01
+    k_long, se = excess_kurtosis(*lag_moments(X, 2000))
+    assert abs(k_long) < 3 * se and se < 0.2
 
 
 def test_c0_exact_is_twice_the_kernels_E_x():
