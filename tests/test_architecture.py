@@ -26,6 +26,7 @@ LAYERS = {
         "bbdyn.billiard",
         "bbdyn.ensemble",
         "bbdyn.diffusion",
+        "bbdyn.correlations",
         "bbdyn.classify",
         "bbdyn.poincare",
         "bbdyn.flat",  # the flat ball

@@ -106,8 +106,14 @@ def compute(settings: dict, seed: int = 0) -> SceneB9Result:
         res = correlations(Params(f=float(f)), seed=seed, **{k: settings[k] for k in keys})
         arrays.update({f"{name}_{i}": res[name] for name in PER_F})
         rows.append(_row(res, float(f)))
+    key = {
+        f"{r['f']:g} Hz": f"D_GK = {r['D_GK']:.3g} ± {r['D_GK_se']:.2g}, Einstein D = "
+        f"{r['D']:.3g} ± {r['D_se']:.2g} mm^2/s (z = {r['z']:.2f}); kurtosis peak "
+        f"{r['kurtosis_max']['value']:.3g} at {r['kurtosis_max_lag']:.2g} s"
+        for r in rows
+    }
     meta = make_meta(seed=seed, wall_s=time.perf_counter() - start, rows=rows,
-                     table=gk_table(rows))  # fmt: skip
+                     table=gk_table(rows), key_numbers=key)  # fmt: skip
     meta["params"] = {k: v for k, v in Params(f=85.2).to_dict().items() if k != "f"}
     return SceneB9Result(arrays, meta)
 
