@@ -234,3 +234,24 @@ def test_green_kubo_equals_einstein_at_the_scene_frequencies(f):
     """The scene's diffusive frequencies at a medium size (about a minute each)."""
     res = correlations(Params(f=f), n=300, t=60.0, seed=1, cutoff=15.0, times=(1.0,))
     assert abs(res.meta["z"]) < 3, res.meta
+
+
+def test_scene_b9_table_and_drawing(tmp_path):
+    """Scene B9 at a tiny size: the Green-Kubo table from the stored numbers, one row of five
+    panels (and the C axis' twin) per frequency, drawn from the saved data."""
+    from bbdyn.scenes import b9_distributions as b9
+
+    tiny = {"f": (88.4,), "n": 4, "t": 4.0, "cutoff": 0.5, "times": (0.1,),
+            "record_particles": 2, "record_capacity": 2000}  # fmt: skip
+    b9.compute(tiny, seed=3).save(tmp_path / "b9")
+    back = load_result(tmp_path / "b9")
+    (row,) = back.meta["rows"]
+    assert back.meta["table"]["rows"][0][0] == "88.4"
+    assert row["z"] == pytest.approx((row["D_GK"] - row["D"]) / math.hypot(row["D_GK_se"],
+                                                                          row["D_se"]))  # fmt: skip
+    counts = back["jump_counts_0"]
+    assert row["jump_tail"]["1"] == pytest.approx(counts[1:].sum() / counts.sum())
+    import matplotlib
+
+    matplotlib.use("Agg")
+    assert len(b9.draw(back).axes) == 6
