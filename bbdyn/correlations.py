@@ -86,9 +86,10 @@ BINS_PER_PERIOD = 16
 BATCH = 100
 #: Bins of the histograms of P(x, tau) and of the position within a tile.
 N_BINS = 60
-#: Half-width of the P(x, tau) histograms: ``HIST_SIGMAS`` Einstein standard deviations
-#: ``sqrt(2 D tau)`` (D raised by two standard errors) plus ``HIST_TILES`` tile widths.
-HIST_SIGMAS, HIST_TILES = 6.0, 2.0
+#: Half-width of the P(x, tau) histograms: the larger of ``HIST_SIGMAS`` Einstein standard
+#: deviations ``sqrt(2 D tau)`` (D raised by two standard errors) and ``HIST_SPAN`` times the
+#: largest |x(s + tau) - x(s)| of the first batch of particles (bounded, trapped motion).
+HIST_SIGMAS, HIST_SPAN = 6.0, 1.5
 #: Stored lags of C: every grid lag up to DENSE_LAGS_S (s), then 400 log-spaced ones.
 DENSE_LAGS_S = 1.0
 #: Lags (log-spaced, one period to a third of the window) of the kurtosis curve.
@@ -296,8 +297,7 @@ def correlations(
     P_lags = np.unique(np.rint(times / h).astype(int))
     k_lags = np.unique(np.rint(np.geomspace(bins_per_period, len(grid) / 3, N_KURTOSIS_LAGS)))
     k_lags = k_lags.astype(int)
-    half = HIST_SIGMAS * np.sqrt(2.0 * max(D_E + 2 * D_E_se, 0.0) * P_lags * h)
-    P_edges = np.linspace(-1.0, 1.0, N_BINS + 1) * (half + HIST_TILES * params.d)[:, None]
+    sigma = np.sqrt(2.0 * max(D_E + 2 * D_E_se, 0.0) * P_lags * h)
     tile_edges = np.linspace(0.0, params.d, N_BINS + 1)
     acc = _Accumulator(n, n_lags, len(P_lags), len(k_lags), N_BINS)
     ics = initial_conditions(params, n, [seed, 1])
@@ -317,6 +317,8 @@ def correlations(
         events += int(ens["events"].sum())
         E_x.append(ens["E_x"])
         X = ens["displacement"]  # mm from x(0), at the grid times
+        if lo == 0:
+            P_edges = _P_edges(X, P_lags, sigma)
         acc.add(X, x0[lo:hi, None] + X, h, P_lags, k_lags, P_edges, tile_edges)
         record.add(ens, params, p0)
     arrays, numbers = acc.finish(h, P_lags, k_lags, P_edges, tile_edges)
@@ -435,6 +437,15 @@ class _Accumulator:
         numbers = {"D_GK": float(gk[0]), "D_GK_se": float(gk_se[0]),
                    "D_GK_mean": float(gk[1]), "D_GK_mean_se": float(gk_se[1])}  # fmt: skip
         return arrays, numbers
+
+
+def _P_edges(X: np.ndarray, lags: np.ndarray, sigma: np.ndarray) -> np.ndarray:
+    """Bin edges (mm) of the P(x, tau) histograms, one row per lag (``HIST_SIGMAS``,
+    ``HIST_SPAN``), from the grid positions ``X`` of the first batch."""
+    reach = np.array([np.max(np.abs(X[:, lag:] - X[:, :-lag])) for lag in lags])
+    half = np.maximum(HIST_SIGMAS * sigma, HIST_SPAN * reach)
+    half = np.where(half > 0, half, 1.0)  # nothing moved: any bins
+    return np.linspace(-1.0, 1.0, N_BINS + 1) * half[:, None]
 
 
 def _density(counts: np.ndarray, edges: np.ndarray) -> np.ndarray:

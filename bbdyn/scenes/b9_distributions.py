@@ -55,7 +55,8 @@ class SceneB9Result(Result):
     """Arrays: ``f`` (Hz) and, per frequency index i, the arrays ``PER_F`` of
     ``bbdyn.correlations.CorrelationResult`` with the suffix ``_i``.  ``meta["rows"]``:
     per frequency the numbers ``NUMBERS`` of its result, ``kurtosis_max`` (with ``_se`` and
-    its lag, s) and the jump tail ``P(|dl| >= k)`` for ``TAIL_AT``; ``meta["table"]``: the
+    its lag, s), the jump tail ``P(|dl| >= k)`` for ``TAIL_AT`` and ``D_GK_swing`` (mm^2/s,
+    the range of the running GK integral over the cutoffs in ``[T/2, T]``); ``meta["table"]``: the
     Green-Kubo table (columns, rows) for the docs."""
 
     kind = "scene_b9"
@@ -77,6 +78,8 @@ def _row(res, f: float) -> dict:
     total = max(int(counts.sum()), 1)
     row["jump_tail"] = {str(j): float(counts[j:].sum() / total) for j in TAIL_AT}
     row["jump_max"] = int(np.flatnonzero(counts)[-1]) if counts.any() else 0
+    late = res["lag"] >= 0.5 * res.meta["cutoff"]
+    row["D_GK_swing"] = float(np.ptp(res["D_GK_running"][late]))
     return row
 
 
@@ -143,6 +146,7 @@ def draw(result: Result):
         ax = axes[i, 3]
         counts = a["jump_counts"]
         ax.bar(np.arange(counts.size), counts / max(counts.sum(), 1), color="C2")
+        ax.set_xticks(np.arange(counts.size))
         ax.set(yscale="log", xlabel="tiles crossed per flight", ylabel="fraction of flights")
         _draw_C(axes[i, 4], a, row)
         axes[i, 0].set_title(f"f = {fi:g} Hz", loc="left", fontweight="bold")
