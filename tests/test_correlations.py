@@ -255,3 +255,21 @@ def test_scene_b9_table_and_drawing(tmp_path):
 
     matplotlib.use("Agg")
     assert len(b9.draw(back).axes) == 6
+
+
+def test_the_documented_b9_figure_backs_docs_distributions():
+    """What docs/distributions.md says of the committed B9 figure, checked on its data."""
+    from pathlib import Path
+
+    path = Path(__file__).resolve().parents[1] / "docs" / "figures" / "B9_full.json"
+    meta = load_result(path).meta
+    rows = {r["f"]: r for r in meta["rows"]}
+    for f in (58.0, 77.2, 85.2, 88.4):  # Green-Kubo equals Einstein within the errors
+        assert abs(rows[f]["z"]) < 3, (f, rows[f]["z"])
+    trapped = rows[70.2]  # no limit: the integral swings; Cesaro mean and D far below it
+    assert trapped["D_GK_se"] < 1e-9 * trapped["D_GK_swing"]
+    assert max(abs(trapped["D_GK_mean"]), abs(trapped["D"])) < 0.01 * trapped["D_GK_swing"]
+    for f in (77.2, 85.2, 88.4):  # the kurtosis peaks and falls back towards 0
+        peak, last = rows[f]["kurtosis_max"], rows[f]["kurtosis_last"]
+        assert peak["value"] - 3 * peak["se"] > 1 and last["value"] < 0.2 * peak["value"]
+    assert meta["jump_max"] == max(r["jump_max"] for r in meta["rows"]) == 1
