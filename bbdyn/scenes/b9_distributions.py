@@ -170,8 +170,8 @@ def _draw_P(ax, a: dict, row: dict) -> None:
             ax.plot(mid, np.exp(-(mid**2) / (2 * var)) / np.sqrt(2 * np.pi * var), "--",
                     color=f"C{j}", lw=0.8)  # fmt: skip
     positive = a["P_density"][a["P_density"] > 0]
-    low = 0.3 * positive.min() if positive.size else None
-    ax.set(yscale="log", xlabel=r"$x(s+\tau) - x(s)$ (mm)", ylabel="P (1/mm)", ylim=(low, None))
+    limits = (0.3 * positive.min(), 3.0 * positive.max()) if positive.size else (None, None)
+    ax.set(yscale="log", xlabel=r"$x(s+\tau) - x(s)$ (mm)", ylabel="P (1/mm)", ylim=limits)
     ax.legend(fontsize=7, frameon=False, title="dashed: 2Dτ", title_fontsize=7)
 
 
