@@ -231,7 +231,7 @@ def test_bad_cutoff_and_times_are_refused():
 @pytest.mark.slow
 @pytest.mark.parametrize("f", [58.0, 77.2, 85.2, 88.4])
 def test_green_kubo_equals_einstein_at_the_scene_frequencies(f):
-    """The scene's diffusive frequencies at a medium size (about a minute each)."""
+    """The scene's diffusive frequencies at a medium size (5-10 s each on an idle core)."""
     res = correlations(Params(f=f), n=300, t=60.0, seed=1, cutoff=15.0, times=(1.0,))
     assert abs(res.meta["z"]) < 3, res.meta
 

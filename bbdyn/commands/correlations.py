@@ -14,6 +14,8 @@ JSON keys (docs/schema.md): ``version``, ``params``, ``seed``, ``gamma``, ``n``,
 ``flights``, ``jump_counts``; ``cpu_s``, ``wall_s``; ``units``.
 """
 
+import numpy as np
+
 from bbdyn.commands import (
     Clock,
     add_ensemble_arguments,
@@ -25,6 +27,7 @@ from bbdyn.commands import (
     print_json,
     save_result,
 )
+from bbdyn.correlations import correlations
 
 HELP = "velocity autocorrelation, Green-Kubo D against Einstein D, distributions at one f"
 
@@ -43,10 +46,6 @@ def add_arguments(parser) -> None:
 
 def summary(args) -> dict:
     """Run ``correlations`` as described by ``args``; the printed numbers as a JSON-ready dict."""
-    import numpy as np
-
-    from bbdyn.correlations import correlations
-
     clock = Clock()
     params = params_from(args)
     res = correlations(
