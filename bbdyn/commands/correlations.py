@@ -35,7 +35,6 @@ HELP = "velocity autocorrelation, Green-Kubo D against Einstein D, distributions
 def add_arguments(parser) -> None:
     add_model_arguments(parser)
     add_ensemble_arguments(parser, t=50.0)
-    parser.set_defaults(n=200)
     parser.add_argument(
         "--cutoff", type=finite, default=4.0,
         help="upper limit T of the Green-Kubo integral in s, at most a third of the window "
