@@ -231,7 +231,7 @@ def correlations(
     t: float = 50.0,
     transient: float | None = None,
     seed=0,
-    cutoff: float = 0.5,
+    cutoff: float = 10.0,
     times=(0.1, 1.0, 5.0),
     bins_per_period: int = BINS_PER_PERIOD,
     record_particles: int = 20,

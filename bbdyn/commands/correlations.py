@@ -36,7 +36,7 @@ def add_arguments(parser) -> None:
     add_model_arguments(parser)
     add_ensemble_arguments(parser, t=50.0)
     parser.add_argument(
-        "--cutoff", type=finite, default=4.0,
+        "--cutoff", type=finite, default=10.0,
         help="upper limit T of the Green-Kubo integral in s, at most a third of the window "
         "after the transient t/5 (default: %(default)s)",
     )  # fmt: skip
