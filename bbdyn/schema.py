@@ -123,6 +123,17 @@ QUANTITIES: dict[str, tuple[str, str]] = {
     "p_b": ("", "probability of a backward jump"),
     "fraction_long": ("", "fraction of the jumps longer than d"),
     "n_jumps": ("", "jumps of all particles in the averaging window"),
+    # ---- correlations and distributions (docs/distributions.md)
+    "cutoff": ("s", "upper limit T of the Green-Kubo integral of C(tau)"),
+    "D_GK": ("mm^2/s", "Green-Kubo integral of the velocity autocorrelation up to the cutoff"),
+    "D_GK_mean": ("mm^2/s", "Green-Kubo integral averaged over the cutoffs in [T/2, T]"),
+    "z": ("", "(D_GK - D) / sqrt(D_GK_se^2 + D_se^2), independent ensembles"),
+    "z_mean": ("", "z of D_GK_mean"),
+    "C0_binned": ("mm^2/s^2", "velocity autocorrelation of the bin-averaged vx at lag 0"),
+    "kurtosis_max": ("", "largest excess kurtosis of x(s + tau) - x(s) over the lags"),
+    "kurtosis_max_lag": ("s", "lag tau of kurtosis_max"),
+    "flights": ("", "flights between recorded collisions"),
+    "jump_counts": ("", "flights by the number of tiles crossed: 0, 1, 2, ..."),
     # ---- energies (docs/model.md, section 3), period-averaged
     "E": (E_UNIT, "total energy per unit mass"),
     "E_x": (E_UNIT, "horizontal kinetic energy"),

@@ -27,6 +27,7 @@ LAYERS = {
         "bbdyn.ensemble",
         "bbdyn.gpu",  # the CUDA engine of the ensembles
         "bbdyn.diffusion",
+        "bbdyn.correlations",
         "bbdyn.classify",
         "bbdyn.poincare",
         "bbdyn.flat",  # the flat ball

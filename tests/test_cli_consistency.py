@@ -19,7 +19,8 @@ from bbdyn.commands import BILLIARD_OPTIONS, MODEL_MEANINGS, cli
 #: (lyapunov runs the billiard, or the flat ball with --flat, which needs --g.)
 BILLIARD_COMMANDS = {"simulate": BILLIARD_OPTIONS, "gk": BILLIARD_OPTIONS,
                      "classify": BILLIARD_OPTIONS, "scan": BILLIARD_OPTIONS[1:],
-                     "lyapunov": (*BILLIARD_OPTIONS, "g")}  # fmt: skip
+                     "lyapunov": (*BILLIARD_OPTIONS, "g"),
+                     "correlations": BILLIARD_OPTIONS}  # fmt: skip
 #: Commands of the flat ball, and their model options.
 FLAT_COMMANDS = {"tongues": ("A", "alpha", "g"), "doublings": ("alpha",)}
 TINY = ["--f", "85.2", "--n", "4", "--t", "1", "--seed", "3", "--threads", "1"]

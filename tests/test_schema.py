@@ -19,6 +19,8 @@ def runs(folder: Path) -> dict[str, tuple[list[str], bool]]:
     return {
         "simulate": (["simulate", *TINY, "--threads", "1"], True),
         "gk": (["gk", *TINY, "--nmax", "2", "--threads", "1"], True),
+        "correlations": (["correlations", "--f", "85.2", "--n", "4", "--t", "4", "--seed", "3",
+                          "--cutoff", "0.5", "--threads", "1"], True),
         "classify": (["classify", *TINY, "--threads", "1"], True),
         "lyapunov": (["lyapunov", *TINY, "--transient", "0.5"], True),
         "lyapunov --flat": (["lyapunov", "--flat", *TINY, "--transient", "0.5"], True),

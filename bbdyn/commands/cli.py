@@ -34,6 +34,7 @@ COMMANDS = {
     "simulate": "simulate",
     "reproduce": "reproduce",
     "gk": "gk",
+    "correlations": "correlations",
     "scan": "scan",
     "classify": "classify",
     "doublings": "doublings",
