@@ -41,6 +41,7 @@ from bbdyn.runs import (
     check_run,
     failed_particles,
     new_carry,
+    noise_key,
     numba_threads,
     periods_phase,
     run_chunked,
@@ -135,7 +136,7 @@ def _box_points(box: Box, u: np.ndarray) -> np.ndarray:
 def _leaving_floor(params: Params, ics: np.ndarray, u: float) -> np.ndarray:
     """Which rows ``(s, vx+, vy+)`` of ``ics`` leave the floor moving at ``u`` (mm/s)."""
     ok = np.empty(ics.shape[0], dtype=np.bool_)
-    core.leaving_floor(ics, u, params.kernel(), ok)
+    core.leaving_floor(ics, u, params.kernel(noise=True), ok)
     return ok
 
 
@@ -145,7 +146,7 @@ def kernel_states(params: Params, ics: np.ndarray) -> np.ndarray:
     if np.any((s < 0) | (s > params.s_max)):
         raise ValueError(f"initial s must be in [0, s_max = {params.s_max}] mm")
     states = np.empty((ics.shape[0], 7))
-    bad = core.initial_states(ics, params.kernel(), states)
+    bad = core.initial_states(ics, params.kernel(noise=True), states)
     if bad >= 0:
         raise ValueError(
             f"initial conditions must leave the floor (post-collision states); particle {bad}, "
@@ -194,7 +195,10 @@ def ensemble(
     counts and displacements, integrals to rounding); ``"converged"`` (default, also True)
     besides once a cycle has converged to within ``FF_DRIFT_TOL`` = 1e-12 mm (positions
     within 1e-12 mm, integrals within 1e-12 relative); ``"off"`` (also False) event by
-    event.  ``on_failure``: ``"keep"`` or ``"raise"`` (``runs.failed_particles``).
+    event; with random restitution (``params.eta > 0``) no cycle repeats and it is always
+    ``"off"`` (``meta["fast_forward"]``).  ``on_failure``: ``"keep"`` or ``"raise"``
+    (``runs.failed_particles``).  ``seed`` also keys the random restitution
+    (``runs.noise_key``): particle ``i``'s collisions draw from (seed, i, flight index).
     ``max_events``, ``max_bytes``: refuse larger runs (``runs.check_size``).  The run goes
     in chunks of ``chunk_events`` events (``runs.run_chunked``: Ctrl-C stops it between
     chunks, ``progress`` is told the fraction done) on ``threads`` numba threads; the
@@ -215,11 +219,13 @@ def ensemble(
     out, estimate = _allocate_outputs(n, sample_times.size, caps, lags, limits)
     if ics is None:
         ics = initial_conditions(params, n, seed, box)
-    carry, buffers = new_carry(kernel_states(params, ics), lags, 0), core.EnsembleOut(**out)
+    key = noise_key(seed) if params.eta > 0 else (0, 0)
+    carry, buffers = new_carry(kernel_states(params, ics), lags, 0, key), core.EnsembleOut(**out)
+    kp = params.kernel(noise=True)
     start, cpu_start = time.perf_counter(), time.process_time()
     with numba_threads(threads) as used_threads:
         run_chunked(
-            lambda budget: core.run_ensemble(carry, budget, params.kernel(), times, obs, buffers),
+            lambda budget: core.run_ensemble(carry, budget, kp, times, obs, buffers),
             carry, buffers.status, times.end_periods + times.end_phase / (2 * math.pi),
             chunk_events=chunk_events, progress=progress,
         )  # fmt: skip
@@ -280,7 +286,7 @@ def _kernel_inputs(params, run, sample_times, observables, fast_forward, record_
     ):
         if name in observables:
             flags |= flag
-    mode = fast_forward_mode(fast_forward)
+    mode = "off" if params.eta > 0 else fast_forward_mode(fast_forward)
     if mode != "off":
         flags |= core.OBS_FAST_FORWARD
     if mode == "converged":

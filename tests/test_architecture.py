@@ -75,6 +75,8 @@ CORE_ROOMS = {
     "bbdyn.core.features": {"plate"},
     "bbdyn.core.observables": {"plate", "floor", "layout", "features"},
     "bbdyn.core.fast_forward": {"billiard", "billiard_tangent", "layout", "observables"},
+    "bbdyn.core.rng": set(),
+    "bbdyn.core.noise": {"rng"},
     "bbdyn.core.ensemble": {
         "floor",
         "billiard",
@@ -82,6 +84,7 @@ CORE_ROOMS = {
         "observables",
         "features",
         "fast_forward",
+        "noise",
     },
 }
 MAX_CORE_PARAMETERS = 10

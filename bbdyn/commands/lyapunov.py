@@ -45,7 +45,8 @@ windows_type = integer_in("windows", 1, 1000, "the run is split into this many w
 
 
 def add_arguments(parser) -> None:
-    add_model_arguments(parser, (*BILLIARD_OPTIONS, "g"))
+    # the tangent dynamics is deterministic: no --eta
+    add_model_arguments(parser, (*(o for o in BILLIARD_OPTIONS if o != "eta"), "g"))
     parser.add_argument("--n", type=n_type, default=20, help="particles (default: 20)")
     parser.add_argument(
         "--t", type=finite, default=20.0, help="measured time in s (default: %(default)g)"

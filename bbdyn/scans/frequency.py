@@ -255,6 +255,7 @@ def diffusion_point(
     beta: float | None = None,
     R: float | None = None,
     d: float | None = None,
+    eta: float | None = None,
 ) -> dict[str, float | np.ndarray]:
     """D and the steady-state energies of the reference ensemble at one frequency.
 
@@ -274,8 +275,9 @@ def diffusion_point(
         Equally spaced displacement samples in ``[0, t]`` (the MSD curve), >= 11.
     n_boot : int
         Bootstrap resamples of D.
-    A, alpha, beta, R, d : float, optional
-        Other parameters (default parameters (docs/model.md) if None).
+    A, alpha, beta, R, d, eta : float, optional
+        Other parameters (default parameters (docs/model.md) if None); ``eta > 0``: random
+        restitution, keyed by the point's seed.
 
     Returns
     -------
@@ -293,7 +295,7 @@ def diffusion_point(
     >>> out["trapped"], out["D"], out["D_se"]
     (1, 0.0, 0.0)
     """
-    given = (("A", A), ("alpha", alpha), ("beta", beta), ("R", R), ("d", d))
+    given = (("A", A), ("alpha", alpha), ("beta", beta), ("R", R), ("d", d), ("eta", eta))
     changes = {k: v for k, v in given if v is not None}
     params = Params(f=f, **changes)
     n = _check_point_arguments(params, n, t, transient, n_samples)
@@ -415,9 +417,9 @@ def _model_changes(model: dict) -> dict[str, float]:
     """The entries of ``model`` that differ from the ``Params`` defaults (ValueError for a
     name ``diffusion_point`` does not take)."""
     defaults = Params(f=1.0).to_dict()
-    unknown = sorted(set(model) - {"A", "alpha", "beta", "R", "d"})
+    unknown = sorted(set(model) - {"A", "alpha", "beta", "R", "d", "eta"})
     if unknown:
-        raise ValueError(f"model takes A, alpha, beta, R, d; got {', '.join(unknown)}")
+        raise ValueError(f"model takes A, alpha, beta, R, d, eta; got {', '.join(unknown)}")
     return {k: float(v) for k, v in model.items() if float(v) != defaults[k]}
 
 
@@ -437,7 +439,7 @@ def frequency_scan(
 ):
     """Run ``diffusion_point`` over ``frequencies`` with ``bbdyn.scans.runner.run_scan``.
 
-    ``model`` sets parameters other than f (``A``, ``alpha``, ``beta``, ``R``, ``d``);
+    ``model`` sets parameters other than f (``A``, ``alpha``, ``beta``, ``R``, ``d``, ``eta``);
     only those that differ from the ``Params`` defaults become arguments of the scan, so
     a scan at the defaults is the same scan with or without them.
 
