@@ -38,6 +38,7 @@ from bbdyn.runs import (
     check_run,
     failed_particles,
     new_carry,
+    noise_key,
     numba_threads,
     periods_phase,
     run_chunked,
@@ -305,15 +306,16 @@ def trajectory_features(
     limits = {"params": params, "n": m, "t": t}
     out, _ = allocate(shapes, extra=m * 8 * (CARRY_WIDTH + 3 * int(th.pmax)), limits=limits)
     ics, states, box_index = _states_from(params, given, boxes, n, seed, start_phase)
-    carry = new_carry(states, 0, int(th.pmax))
+    carry = new_carry(states, 0, int(th.pmax), noise_key(seed) if params.eta > 0 else (0, 0))
     s_periods, s_phase = periods_phase(sample_times, params.f)
     end = np.array([v[0] for v in periods_phase(np.array([t]), params.f)])
     times = RunTimes(end[0], end[1], p0, L, int(blocks), s_periods, s_phase)
     feature_th = th.kernel()
+    kp = params.kernel(noise=True)
     buffers = core.FeatureOut(**out)
 
     def advance(budget):
-        run_features(carry, budget, params.kernel(), times, feature_th, buffers)
+        run_features(carry, budget, kp, times, feature_th, buffers)
 
     start = time.perf_counter()
     with numba_threads(threads):

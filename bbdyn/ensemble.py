@@ -42,6 +42,7 @@ from bbdyn.runs import (
     check_run,
     failed_particles,
     new_carry,
+    noise_key,
     numba_threads,
     periods_phase,
     run_chunked,
@@ -143,7 +144,7 @@ def _box_points(box: Box, u: np.ndarray) -> np.ndarray:
 def _leaving_floor(params: Params, ics: np.ndarray, u: float) -> np.ndarray:
     """Which rows ``(s, vx+, vy+)`` of ``ics`` leave the floor moving at ``u`` (mm/s)."""
     ok = np.empty(ics.shape[0], dtype=np.bool_)
-    core.leaving_floor(ics, u, params.kernel(), ok)
+    core.leaving_floor(ics, u, params.kernel(noise=True), ok)
     return ok
 
 
@@ -153,7 +154,7 @@ def kernel_states(params: Params, ics: np.ndarray) -> np.ndarray:
     if np.any((s < 0) | (s > params.s_max)):
         raise ValueError(f"initial s must be in [0, s_max = {params.s_max}] mm")
     states = np.empty((ics.shape[0], 7))
-    bad = core.initial_states(ics, params.kernel(), states)
+    bad = core.initial_states(ics, params.kernel(noise=True), states)
     if bad >= 0:
         raise ValueError(
             f"initial conditions must leave the floor (post-collision states); particle {bad}, "
@@ -203,7 +204,10 @@ def ensemble(
     counts and displacements, integrals to rounding); ``"converged"`` (default, also True)
     besides once a cycle has converged to within ``FF_DRIFT_TOL`` = 1e-12 mm (positions
     within 1e-12 mm, integrals within 1e-12 relative); ``"off"`` (also False) event by
-    event.  ``on_failure``: ``"keep"`` or ``"raise"`` (``runs.failed_particles``).
+    event; with random restitution (``params.eta > 0``) no cycle repeats and it is always
+    ``"off"`` (``meta["fast_forward"]``).  ``on_failure``: ``"keep"`` or ``"raise"``
+    (``runs.failed_particles``).  ``seed`` also keys the random restitution
+    (``runs.noise_key``): particle ``i``'s collisions draw from (seed, i, flight index).
     ``max_events``, ``max_bytes``: refuse larger runs (``runs.check_size``).  The run goes
     in chunks of ``chunk_events`` events (``runs.run_chunked``: Ctrl-C stops it between
     chunks, ``progress`` is told the fraction done) on ``threads`` numba threads; the
@@ -261,8 +265,9 @@ def ensembles(
     jobs = [_prepare(p, seed, device, options) for p, seed in zip(params_list, seeds, strict=True)]
     if device == "cuda":
         start, cpu_start = time.perf_counter(), time.process_time()
-        stats = run_cuda([CudaJob(j.params.kernel(), j.times, j.obs, j.carry.state, j.buffers)
-                          for j in jobs], chunk_events=chunk_events, progress=progress)  # fmt: skip
+        cuda_jobs = [CudaJob(j.params.kernel(noise=True), j.times, j.obs, j.carry.state,
+                             j.buffers) for j in jobs]  # fmt: skip
+        stats = run_cuda(cuda_jobs, chunk_events=chunk_events, progress=progress)
         wall, cpu = time.perf_counter() - start, time.process_time() - cpu_start
         info |= {"batch": len(jobs), "launches": stats["launches"], "device_bytes": stats["bytes"]}
         return [_finish(j, wall, cpu, None, on_failure, info) for j in jobs]
@@ -285,7 +290,7 @@ _OPTIONS = ("n", "box", "initial", "sample_times", "transient", "observables",
 
 def _run_cpu(job: _Job, chunk_events, progress) -> None:
     """Run one job's particles on the CPU (``core.run_ensemble`` in chunks)."""
-    kp, times = job.params.kernel(), job.times
+    kp, times = job.params.kernel(noise=True), job.times
     run_chunked(
         lambda budget: core.run_ensemble(job.carry, budget, kp, times, job.obs, job.buffers),
         job.carry, job.buffers.status, times.end_periods + times.end_phase / (2 * math.pi),
@@ -339,7 +344,8 @@ def _prepare(params: Params, seed, device: str, options: dict) -> _Job:
     box = o.get("box")
     if ics is None:
         ics = initial_conditions(params, n, seed, box)
-    carry = new_carry(kernel_states(params, ics), lags, 0)
+    key = noise_key(seed) if params.eta > 0 else (0, 0)
+    carry = new_carry(kernel_states(params, ics), lags, 0, key)
     return _Job(params, seed, run, ics, sample_times, observables,
                 None if o.get("initial") is not None else (box or reference_box(params)),
                 mode, estimate, out, times, obs, carry, core.EnsembleOut(**out))  # fmt: skip
@@ -404,7 +410,7 @@ def _kernel_inputs(params, run, sample_times, observables, fast_forward, record_
     ):
         if name in observables:
             flags |= flag
-    mode = fast_forward_mode(fast_forward)
+    mode = "off" if params.eta > 0 else fast_forward_mode(fast_forward)
     if mode != "off":
         flags |= core.OBS_FAST_FORWARD
     if mode == "converged":

@@ -28,7 +28,8 @@ class KernelParams(NamedTuple):
     a bound on the fifth derivative of the arc height on a tile, ``billiard.tiny_hop``) and
     the release window ``release_r <= phase < release_e`` (rad) where ``sin(phase) <
     -1/Gamma`` (``plate.release_window``: both -1 for Gamma <= 1), so that no flight or
-    stick computes its arcsine again.
+    stick computes its arcsine again.  ``eta``: the noise amplitude of the restitution
+    coefficients, read by the particle loop only (``core.noise``).
     """
 
     A: float
@@ -45,6 +46,7 @@ class KernelParams(NamedTuple):
     arc5_bound: float
     release_r: float
     release_e: float
+    eta: float
 
 
 #: Supported range ``(low, high)`` of each dimensional field, in its unit (Hz, mm, mm/s^2);
@@ -102,6 +104,11 @@ class Params:
         Radius of the circular scatterers in mm, in (d/2, 1e12]; default 25.
     d : float
         Width of one scatterer (tile) in mm, in [1e-6, 1e6]; default 2.
+    eta : float
+        Noise amplitude of the restitution coefficients, in [0, 1]; default 0 (deterministic).
+        For eta > 0 every flight's collision draws its own alpha and beta, uniform on
+        ``c +- eta min(c, 1 - c)`` (docs/model.md, "Noise"; ``bbdyn.core.noise``): modelled
+        by the ensemble runs (``ensemble``, ``classify``, the scans) only.
 
     Every field must be a real number (bools and strings are refused with a
     TypeError); the ranges of the dimensional fields are ``LIMITS``.
@@ -124,11 +131,12 @@ class Params:
     beta: float = 0.99
     R: float = 25.0
     d: float = 2.0
+    eta: float = 0.0
 
     def __post_init__(self) -> None:
-        for name in ("f", "A", "g", "alpha", "beta", "R", "d"):
+        for name in ("f", "A", "g", "alpha", "beta", "R", "d", "eta"):
             object.__setattr__(self, name, _check_real(name, getattr(self, name)))
-        for name in ("alpha", "beta"):
+        for name in ("alpha", "beta", "eta"):
             value = getattr(self, name)
             if not 0.0 <= value <= 1.0:
                 raise ValueError(f"{name} must be in [0, 1], got {value}")
@@ -182,8 +190,18 @@ class Params:
         """The primary fields as a plain dict (for metadata and JSON)."""
         return asdict(self)
 
-    def kernel(self) -> KernelParams:
-        """The plain-float NamedTuple the numba kernels take."""
+    def kernel(self, noise: bool = False) -> KernelParams:
+        """The plain-float NamedTuple the numba kernels take.
+
+        ``noise=True`` for the callers that model ``eta > 0`` (the particle loop of the
+        ensemble runs); any other refuses ``eta > 0`` (ValueError), since its kernels would
+        ignore it.
+        """
+        if self.eta > 0 and not noise:
+            raise ValueError(
+                f"eta = {self.eta:g}: random restitution is modelled by the ensemble runs only "
+                "(ensemble, classify and the scans); this computation is deterministic, use eta = 0"
+            )
         w = self.w
         c0 = math.sqrt(self.R**2 - self.d**2 / 4)
         R2, half, c0_2 = self.R * self.R, 0.5 * self.d, c0 * c0
@@ -205,6 +223,7 @@ class Params:
             arc5_bound=arc5,
             release_r=release_r,
             release_e=release_e,
+            eta=self.eta,
         )
 
 

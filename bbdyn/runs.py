@@ -44,6 +44,7 @@ __all__ = [
     "RunWindow",
     "Carry",
     "new_carry",
+    "noise_key",
     "run_chunked",
     "failed_particles",
     "numba_threads",
@@ -224,11 +225,31 @@ class Carry(NamedTuple):
     ring: np.ndarray
 
 
-def new_carry(states, ff_lags, pmax):
+#: Spawn key of a run's random-restitution stream under its seed (``noise_key``): "noise" in
+#: ASCII, beyond any particle index (``ensemble.initial_conditions`` spawns by index).
+NOISE_SPAWN_KEY = 0x6E6F697365
+
+
+def noise_key(seed) -> tuple[int, int]:
+    """The 64-bit key (two 32-bit words) of a run's random restitution (``core.noise``).
+
+    From ``np.random.SeedSequence(seed)``'s child with spawn key ``NOISE_SPAWN_KEY``: a
+    stream of its own, independent of the initial conditions drawn from the same seed
+    (``seed=None``: fresh entropy, as for them).
+    """
+    root = np.random.SeedSequence(seed)
+    child = np.random.SeedSequence(root.entropy, spawn_key=(*root.spawn_key, NOISE_SPAWN_KEY))
+    k0, k1 = child.generate_state(2, np.uint32)
+    return int(k0), int(k1)
+
+
+def new_carry(states, ff_lags, pmax, noise_key=(0, 0)):
     """A ``Carry`` for particles starting at ``states`` (n, 7); rings of ``ff_lags``, ``pmax``.
 
     ``ff_lags`` is ``FF_LAGS`` with fast-forward, else 0 (no ring is kept); ``pmax`` the
-    features' longest period, else 0.  Plain Python: it only allocates and starts.
+    features' longest period, else 0; ``noise_key``: the key (two 32-bit words,
+    ``noise_key(seed)``) of the random restitution, read only when ``eta > 0``.  Plain Python:
+    it only allocates and starts.
     """
     n = states.shape[0]
     carry = Carry(
@@ -238,7 +259,7 @@ def new_carry(states, ff_lags, pmax):
         np.zeros((n, ff_lags, CNT_WIDTH), dtype=np.int64),
         np.zeros((n, pmax, 3)),
     )
-    start_particles(states, carry.state)
+    start_particles(states, float(noise_key[0]), float(noise_key[1]), carry.state)
     return carry
 
 

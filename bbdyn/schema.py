@@ -58,8 +58,10 @@ E_UNIT = "kg mm^2/s^2"  # energy per unit mass, as every energy of docs/model.md
 QUANTITIES: dict[str, tuple[str, str]] = {
     # ---- every output
     "version": ("", "bbdyn version that computed the numbers"),
-    "params": ("", "model parameters of the run (the keys below: f, A, g, alpha, beta, R, d)"),
-    "seed": ("", "seed of numpy's SeedSequence that drew the initial conditions"),
+    "params": ("", "model parameters of the run (the keys below: f, A, g, alpha, beta, R, d, "
+               "eta)"),
+    "seed": ("", "seed of numpy's SeedSequence that drew the initial conditions (and keyed the "
+             "random restitution, eta > 0)"),
     "cpu_s": ("s", "CPU time of the processes that did the work (kernel compilation on first "
               "use included)"),
     "wall_s": ("s", "wall-clock time of the run"),
@@ -72,6 +74,7 @@ QUANTITIES: dict[str, tuple[str, str]] = {
     "beta": ("", "tangential restitution"),
     "R": ("mm", "scatterer radius"),
     "d": ("mm", "scatterer width"),
+    "eta": ("", "noise amplitude of the restitution coefficients drawn per collision"),
     "gamma": ("", "Gamma = A w^2 / g, the dimensionless driving"),
     # ---- run settings
     "n": ("", "number of particles (per box for classify)"),

@@ -77,6 +77,8 @@ CORE_ROOMS = {
     "bbdyn.core.features": {"plate"},
     "bbdyn.core.observables": {"plate", "floor", "layout", "features"},
     "bbdyn.core.fast_forward": {"billiard", "billiard_tangent", "layout", "observables"},
+    "bbdyn.core.rng": set(),
+    "bbdyn.core.noise": {"rng"},
     "bbdyn.core.ensemble": {
         "floor",
         "billiard",
@@ -84,6 +86,7 @@ CORE_ROOMS = {
         "observables",
         "features",
         "fast_forward",
+        "noise",
     },
     "bbdyn.core.cuda_ensemble": {"ensemble", "layout"},
 }

@@ -16,10 +16,11 @@ from bbdyn import Params, __version__
 from bbdyn.commands import BILLIARD_OPTIONS, MODEL_MEANINGS, cli
 
 #: Commands that run the billiard, and the model options each takes (scan scans f).
-#: (lyapunov runs the billiard, or the flat ball with --flat, which needs --g.)
+#: (lyapunov runs the billiard, or the flat ball with --flat, which needs --g; its tangent
+#: dynamics is deterministic: no --eta.)
 BILLIARD_COMMANDS = {"simulate": BILLIARD_OPTIONS, "gk": BILLIARD_OPTIONS,
                      "classify": BILLIARD_OPTIONS, "scan": BILLIARD_OPTIONS[1:],
-                     "lyapunov": (*BILLIARD_OPTIONS, "g"),
+                     "lyapunov": (*(o for o in BILLIARD_OPTIONS if o != "eta"), "g"),
                      "correlations": BILLIARD_OPTIONS}  # fmt: skip
 #: Commands of the flat ball, and their model options.
 FLAT_COMMANDS = {"tongues": ("A", "alpha", "g"), "doublings": ("alpha",)}

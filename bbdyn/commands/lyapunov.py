@@ -59,7 +59,8 @@ qr_every_type = integer_in("qr-every", 1, 20, "impact-to-impact events between t
 
 
 def add_arguments(parser) -> None:
-    add_model_arguments(parser, (*BILLIARD_OPTIONS, "g"))
+    # the tangent dynamics is deterministic: no --eta
+    add_model_arguments(parser, (*(o for o in BILLIARD_OPTIONS if o != "eta"), "g"))
     parser.add_argument("--n", type=n_type, default=20, help="particles (default: 20)")
     parser.add_argument(
         "--t", type=finite, default=20.0, help="measured time in s (default: %(default)g)"

@@ -53,10 +53,14 @@ from bbdyn.core.layout import (
     ACC_STUCK,
     C_DEP_P,
     C_DEP_PH,
+    C_DRAWS,
     C_K,
+    C_KEY0,
+    C_KEY1,
     C_LAM_P,
     C_NREL,
     C_NRING,
+    C_PARTICLE,
     C_RUN,
     C_TILE0,
     C_TRAP,
@@ -83,6 +87,7 @@ from bbdyn.core.layout import (
     RunTimes,
     Window,
 )
+from bbdyn.core.noise import noisy_params
 from bbdyn.core.observables import (
     displacement,
     integrate_blocks,
@@ -183,8 +188,10 @@ def initial_states(ics, kp, states):
 
 
 @njit(cache=True, fastmath=FMA)
-def start_particles(states, carry_state):
-    """Write the loop state of particles starting at ``states`` (n, 7) into ``carry_state``."""
+def start_particles(states, key0, key1, carry_state):
+    """Write the loop state of particles starting at ``states`` (n, 7) into ``carry_state``;
+    particle ``i`` draws its random restitution (``core.noise``) with the key ``(key0, key1)``
+    (32-bit words) as particle ``i``, from flight 0."""
     for i in range(states.shape[0]):
         for c in range(7):
             carry_state[i, c] = states[i, c]
@@ -198,6 +205,10 @@ def start_particles(states, carry_state):
         carry_state[i, C_RUN] = 0.0
         carry_state[i, C_NREL] = 0.0
         carry_state[i, C_LAM_P] = 0.0
+        carry_state[i, C_KEY0] = key0
+        carry_state[i, C_KEY1] = key1
+        carry_state[i, C_PARTICLE] = i
+        carry_state[i, C_DRAWS] = 0.0
 
 
 @njit(cache=True, fastmath=FMA)
@@ -246,6 +257,10 @@ def particle_loop(carry, i, budget, kp, times, out, obs, th, ff):
     trap = cs[C_TRAP]
     dep_periods, dep_phase = cs[C_DEP_P], cs[C_DEP_PH]  # last departure (features' flights)
     n_ring, run, n_rel = int(cs[C_NRING]), int(cs[C_RUN]), int(cs[C_NREL])
+    noisy = kp.eta > 0.0
+    draws = np.uint64(cs[C_DRAWS])  # flights that drew random restitution (core.noise)
+    key0, key1 = np.uint64(cs[C_KEY0]), np.uint64(cs[C_KEY1])
+    particle_id = np.uint64(cs[C_PARTICLE])
     if obs is not None:
         flags = obs.flags
         do_record = (flags & OBS_RECORD) != 0 and i < out.record.shape[0]
@@ -275,7 +290,11 @@ def particle_loop(carry, i, budget, kp, times, out, obs, th, ff):
             break
         n_done += 1
         ev = EventState(periods, phase, tile, xi, vx, vyrel, kind)
-        nxt, status, nxt_trig = event_search(ev, trig, kp)
+        kp_ev = kp
+        if noisy and kind != STICK:  # a flight: its collision draws alpha and beta
+            kp_ev = noisy_params(kp, key0, key1, particle_id, draws)
+            draws += np.uint64(1)
+        nxt, status, nxt_trig = event_search(ev, trig, kp_ev)
         if status == STUCK_FOREVER:
             n_periods, n_phase = math.inf, 0.0
         elif status != OK:
@@ -354,6 +373,7 @@ def particle_loop(carry, i, budget, kp, times, out, obs, th, ff):
     cs[0], cs[1], cs[2], cs[3], cs[4], cs[5], cs[6] = periods, phase, tile, xi, vx, vyrel, kind
     cs[C_K], cs[C_TRAP], cs[C_DEP_P], cs[C_DEP_PH] = k, trap, dep_periods, dep_phase
     cs[C_NRING], cs[C_RUN], cs[C_NREL] = n_ring, run, n_rel
+    cs[C_DRAWS] = draws
     if status == RUNNING:
         return status
     if obs is not None:

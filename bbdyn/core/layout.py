@@ -42,12 +42,15 @@ RUNNING = -1
 #: ``particle_loop`` keeps between events): the last event ``periods, phase, tile, xi, vx,
 #: vyrel, kind``, the start ``tile0, xi0``, the next sample index, the trap, the last
 #: departure ``(periods, phase)``, the feature ring count and tiny-hop run, the releases
-#: remembered, and the last multiplier of ``converged_cycle``: its lag, release point and
-#: ``abs(lam)``.
+#: remembered, the last multiplier of ``converged_cycle``: its lag, release point and
+#: ``abs(lam)``; and the random restitution's counter (``core.noise``): the run's key (two
+#: 32-bit words), the particle's index and the flights that drew so far (integers, exact
+#: in a float below 2^53).
 C_TILE0, C_XI0, C_K, C_TRAP, C_DEP_P, C_DEP_PH = 7, 8, 9, 10, 11, 12
 C_NRING, C_RUN, C_NREL = 13, 14, 15
 C_LAM_P, C_LAM_XI, C_LAM = 16, 17, 18
-CARRY_WIDTH = 19
+C_KEY0, C_KEY1, C_PARTICLE, C_DRAWS = 19, 20, 21, 22
+CARRY_WIDTH = 23
 
 
 class Window(NamedTuple):

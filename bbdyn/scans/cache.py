@@ -27,10 +27,10 @@ __all__ = ["FAMILIES", "scene_folder", "setting_grid", "grid_cpu_forecast", "dif
 
 #: scan family -> the setting keys that define its scan (with the seed and the version)
 FAMILIES = {
-    "diffusion": ("f_start", "f_stop", "f_step", "n", "t", "transient"),  # S3, S4, S5
+    "diffusion": ("f_start", "f_stop", "f_step", "n", "t", "transient", "eta"),  # S3-S5, B8
     "gk": ("f_start", "f_stop", "f_step", "n", "t", "nmax"),  # S9, S10
     "regime": ("f_min", "f_max", "n_f", "n", "t"),  # B1
-    "finestructure": ("centres", "steps", "points", "n", "t"),  # B6
+    "finestructure": ("centres", "steps", "points", "n", "t", "eta"),  # B6, B8
 }
 
 
@@ -71,8 +71,9 @@ def grid_cpu_forecast(settings: dict) -> dict[str, float]:
 def diffusion_scan(settings: dict, seed: int, out_dir=None, progress=False):
     """The frequency scan of an S3-S5 setting (``bbdyn.scans.frequency.frequency_scan`` on
     ``frequency_grid(f_start, f_stop, f_step)``): loaded if finished, else computed or
-    resumed (``progress`` as in ``run_scan``).  With an explicit ``settings["scan_dir"]`` the
-    scan is only loaded, and with ``settings["partial"]`` true its finished points are enough."""
+    resumed (``progress`` as in ``run_scan``), at the noise amplitude ``settings["eta"]`` if
+    given (scene B8).  With an explicit ``settings["scan_dir"]`` the scan is only loaded, and
+    with ``settings["partial"]`` true its finished points are enough."""
     folder = scene_folder("diffusion", settings, seed, out_dir)
     if settings.get("scan_dir"):
         return load_scan(folder, partial=bool(settings.get("partial", False)))
@@ -86,6 +87,7 @@ def diffusion_scan(settings: dict, seed: int, out_dir=None, progress=False):
         workers=settings.get("workers"),
         progress=progress,
         device=settings.get("device", "cpu"),
+        model={"eta": settings.get("eta") or 0.0},
     )
 
 

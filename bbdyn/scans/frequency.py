@@ -257,6 +257,7 @@ def diffusion_point(
     beta: float | None = None,
     R: float | None = None,
     d: float | None = None,
+    eta: float | None = None,
 ) -> dict[str, float | np.ndarray]:
     """D and the steady-state energies of the reference ensemble at one frequency.
 
@@ -276,8 +277,9 @@ def diffusion_point(
         Equally spaced displacement samples in ``[0, t]`` (the MSD curve), >= 11.
     n_boot : int
         Bootstrap resamples of D.
-    A, alpha, beta, R, d : float, optional
-        Other parameters (default parameters (docs/model.md) if None).
+    A, alpha, beta, R, d, eta : float, optional
+        Other parameters (default parameters (docs/model.md) if None); ``eta > 0``: random
+        restitution, keyed by the point's seed.
 
     Returns
     -------
@@ -295,7 +297,7 @@ def diffusion_point(
     >>> out["trapped"], out["D"], out["D_se"]
     (1, 0.0, 0.0)
     """
-    given = (("A", A), ("alpha", alpha), ("beta", beta), ("R", R), ("d", d))
+    given = (("A", A), ("alpha", alpha), ("beta", beta), ("R", R), ("d", d), ("eta", eta))
     changes = {k: v for k, v in given if v is not None}
     options = dict(n=n, t=t, transient=transient, n_samples=n_samples, n_boot=n_boot)
     return diffusion_points([f], [seed_sequence], **options, **changes)[0]
@@ -317,7 +319,7 @@ def diffusion_points(
     """``diffusion_point`` at each frequency with its seed sequence, the ensembles run
     together (``bbdyn.ensemble.ensembles``, ``progress`` its fraction done): on the GPU
     (``device="cuda"``) all of them in one or a few launches.  ``model``: ``A, alpha, beta,
-    R, d`` (as ``diffusion_point``).  The batch form of ``diffusion_point`` for
+    R, d, eta`` (as ``diffusion_point``).  The batch form of ``diffusion_point`` for
     ``run_scan(..., device="cuda")``."""
     changes = {k: v for k, v in model.items() if v is not None}
     params = [Params(f=f, **changes) for f in frequencies]
@@ -459,9 +461,9 @@ def _model_changes(model: dict) -> dict[str, float]:
     """The entries of ``model`` that differ from the ``Params`` defaults (ValueError for a
     name ``diffusion_point`` does not take)."""
     defaults = Params(f=1.0).to_dict()
-    unknown = sorted(set(model) - {"A", "alpha", "beta", "R", "d"})
+    unknown = sorted(set(model) - {"A", "alpha", "beta", "R", "d", "eta"})
     if unknown:
-        raise ValueError(f"model takes A, alpha, beta, R, d; got {', '.join(unknown)}")
+        raise ValueError(f"model takes A, alpha, beta, R, d, eta; got {', '.join(unknown)}")
     return {k: float(v) for k, v in model.items() if float(v) != defaults[k]}
 
 
@@ -484,7 +486,7 @@ def frequency_scan(
 
     ``device="cuda"``: on this machine's GPU, all frequencies together (``run_scan``).
 
-    ``model`` sets parameters other than f (``A``, ``alpha``, ``beta``, ``R``, ``d``);
+    ``model`` sets parameters other than f (``A``, ``alpha``, ``beta``, ``R``, ``d``, ``eta``);
     only those that differ from the ``Params`` defaults become arguments of the scan, so
     a scan at the defaults is the same scan with or without them.
 

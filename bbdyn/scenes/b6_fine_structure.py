@@ -91,12 +91,14 @@ def cost(settings: dict) -> dict[str, float]:
 
 
 def run_points(settings: dict, seed: int, out_dir=None, progress=False):
-    """The scan of all grid points of ``settings`` (computed, resumed or loaded)."""
+    """The scan of all grid points of ``settings`` (computed, resumed or loaded); with
+    ``settings["eta"] > 0`` at that noise amplitude (scene B8)."""
     f, _, _ = grid_points(settings)
     values = np.unique(f)
     n, t = int(settings["n"]), float(settings["t"])
     check_scan_size(float(values.min()), float(values.max()), values.size, n=n, t=t)
-    compute = functools.partial(diffusion_point, n=n, t=t, n_boot=N_BOOT)
+    noise = {"eta": float(settings["eta"])} if settings.get("eta") else {}
+    compute = functools.partial(diffusion_point, n=n, t=t, n_boot=N_BOOT, **noise)
     return run_scan(
         values.tolist(),
         compute,
@@ -135,7 +137,8 @@ def compute(
     meta = make_meta(seed=seed, wall_s=time.perf_counter() - start,
                      scan_compute=scan.meta["compute"], n=int(settings["n"]),
                      t=float(settings["t"]), scan_cpu_s=float(cpu.sum()))  # fmt: skip
-    meta["params"] = {k: v for k, v in Params(f=85.2).to_dict().items() if k != "f"}
+    noisy = Params(f=85.2, eta=float(settings.get("eta") or 0.0))
+    meta["params"] = {k: v for k, v in noisy.to_dict().items() if k != "f"}
     result = FineStructureResult(arrays, meta)
     result.meta["key_numbers"] = key_numbers(result)
     result.meta["table"] = table(result)
