@@ -58,7 +58,8 @@ E_UNIT = "kg mm^2/s^2"  # energy per unit mass, as every energy of docs/model.md
 QUANTITIES: dict[str, tuple[str, str]] = {
     # ---- every output
     "version": ("", "bbdyn version that computed the numbers"),
-    "params": ("", "model parameters of the run (the keys below: f, A, g, alpha, beta, R, d)"),
+    "params": ("", "model parameters of the run (the keys below: f, A, g, alpha, beta, R, d, "
+               "phi)"),
     "seed": ("", "seed of numpy's SeedSequence that drew the initial conditions"),
     "cpu_s": ("s", "CPU time of the processes that did the work (kernel compilation on first "
               "use included)"),
@@ -72,6 +73,7 @@ QUANTITIES: dict[str, tuple[str, str]] = {
     "beta": ("", "tangential restitution"),
     "R": ("mm", "scatterer radius"),
     "d": ("mm", "scatterer width"),
+    "phi": ("degrees", "tilt of the floor, +x downhill for phi > 0 (docs/model.md, Tilt)"),
     "gamma": ("", "Gamma = A w^2 / g, the dimensionless driving"),
     # ---- run settings
     "n": ("", "number of particles (per box for classify)"),
@@ -100,6 +102,7 @@ QUANTITIES: dict[str, tuple[str, str]] = {
     # ---- diffusion
     "D": ("mm^2/s", "Einstein diffusion coefficient, late-window MSD slope / 2"),
     "D_windows": ("", "D in successive time windows: t_centre, D, D_se"),
+    "v_d": ("mm/s", "drift velocity, late-window slope of the mean displacement"),
     "t_centre": ("s", "centre of a time window"),
     "D_converged": ("", "1 if D agrees in every window (p >= 0.01), else 0"),
     "D_windows_p": ("", "p-value of 'D is the same in every window'"),

@@ -207,9 +207,10 @@ MODEL_MEANINGS = {
     "R": "scatterer radius in mm, > d/2 (1e9 is nearly flat)",
     "d": "scatterer width in mm",
     "g": "gravity in mm/s^2",
+    "phi": "tilt of the floor in degrees, in [-15, 15]; +x is downhill for phi > 0",
 }
 #: The model options of a command that runs the billiard.
-BILLIARD_OPTIONS = ("f", "A", "alpha", "beta", "R", "d")
+BILLIARD_OPTIONS = ("f", "A", "alpha", "beta", "R", "d", "phi")
 
 
 def add_model_arguments(parser, names=BILLIARD_OPTIONS, *, f_required: bool = True) -> None:

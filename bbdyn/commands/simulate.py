@@ -11,6 +11,7 @@ R mm, d mm), ``seed``, ``gamma``, ``n``, ``t``, ``transient`` (s), ``threads``,
 ``fast_forward``; ``n_ok``, ``n_failed``, ``failures``; ``D``, ``D_se`` (mm^2/s); ``E``,
 ``E_x``, ``E_y``, ``E_pot``, ``E_reference`` with ``_se`` (kg mm^2/s^2);
 ``stuck_fraction`` (``_se``); ``collision_rate``, ``jump_rate`` (per particle, 1/s);
+``v_d``, ``v_d_se`` (drift velocity, mm/s; D is about the drift when ``phi != 0``);
 ``D_windows`` (``t_centre`` s, ``D``, ``D_se``); ``collisions``; ``cpu_s``, ``wall_s`` (s);
 ``units`` (the unit of each dimensioned key).
 """
@@ -72,7 +73,10 @@ def simulate_summary(args) -> dict:
     out["threads"] = res.meta["threads"]
     out["fast_forward"] = res.meta["fast_forward"]
     out.update(res.summary())
-    centres, D_w, se_w = einstein_D_windows(res["sample_times"], res["displacement"][res.ok])
+    out["v_d"], out["v_d_se"] = (float(v) for v in res.drift())
+    centres, D_w, se_w = einstein_D_windows(
+        res["sample_times"], res["displacement"][res.ok], drift=params.phi != 0.0
+    )
     out["D_windows"] = {"t_centre": centres.tolist(), "D": D_w.tolist(), "D_se": se_w.tolist()}
     out["collisions"] = int(res["collisions"].sum())
     return json_output(out, params=params.to_dict(), clock=clock, seed=args.seed)
@@ -87,6 +91,7 @@ def run(args) -> int:
     print(f"bbdyn {out['version']}  f = {p['f']} Hz  n = {out['n']}  t = {out['t']} s  "
           f"seed = {out['seed']}  (averages after {out['transient']:g} s)")  # fmt: skip
     print(f"  D              = {out['D']:.4g} +- {out['D_se']:.2g} mm^2/s")
+    print(f"  v_d            = {out['v_d']:.4g} +- {out['v_d_se']:.2g} mm/s")
     for name, unit in (("E", "kg mm^2/s^2"), ("E_x", ""), ("E_y", ""), ("E_pot", "")):
         print(f"  {name:<14} = {out[name]:.5g} +- {out[name + '_se']:.2g} {unit}")
     print(f"  A^2 w^2 / 2    = {out['E_reference']:.5g}")

@@ -80,6 +80,16 @@ def flight_integrals(vx, vy0, y0, g, ta, tb):
     return I_Ex, I_Ey, I_pot
 
 
+@njit(cache=True, fastmath=FMA, inline="always")
+def tilted_kinetic_x(vx, g_t, ta, tb):
+    """Integral over ``[ta, tb]`` of ``(vx + g_t t)^2 / 2`` (kg mm^2 / s): the horizontal
+    kinetic energy of a flight on a tilted floor (``g_t`` the pull along it, mm/s^2)."""
+    va = vx + g_t * ta
+    vm = vx + g_t * (0.5 * (ta + tb))
+    vb = vx + g_t * tb
+    return (tb - ta) * (va * va + 4.0 * vm * vm + vb * vb) * (1.0 / 12.0)
+
+
 @njit(cache=True, fastmath=FMA, forceinline=True)
 def stuck_integrals(A, w, g, b, phase_a, dt):
     """Integrals over ``dt`` seconds from phase ``phase_a`` of a particle riding the floor.
@@ -157,6 +167,8 @@ def accumulate_interval(acc, j, ev, trig, b, lo, hi, kp, energy):
         y0 = plate_height_sin(kp.A, trig[0]) + b
         vy0 = ev.vyrel + plate_velocity_cos(kp.A, w, trig[1])
         I_Ex, I_Ey, I_pot = flight_integrals(ev.vx, vy0, y0, kp.g, ta, tb)
+        if kp.g_t != 0.0:  # tilted: vx + g_t t, its square integrated by Simpson (exact)
+            I_Ex = tilted_kinetic_x(ev.vx, kp.g_t, ta, tb)
         acc[j, ACC_EX] += I_Ex
         acc[j, ACC_EY] += I_Ey
         acc[j, ACC_POT] += I_pot

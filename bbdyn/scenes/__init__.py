@@ -1,5 +1,5 @@
 """Scenes: one module per figure or analysis, of the reference paper (S1-S10) and beyond
-(B1-B6, the benchmarks B2 included); ``SCENES`` is the one registry that ``bbdyn scene``,
+(B1-B7, the benchmarks B2 included); ``SCENES`` is the one registry that ``bbdyn scene``,
 ``bbdyn bench`` and ``bbdyn reproduce`` read.
 
 Each scene module defines
@@ -56,6 +56,7 @@ SCENES = {
     "B5": "b5_lyapunov",
     "B4": "b4_higher_tongues",
     "B6": "b6_fine_structure",
+    "B7": "b7_tilt",
 }
 #: setting name -> attribute of a scene module holding its values
 SETTINGS = {"quick": "QUICK", "medium": "MEDIUM", "full": "FULL"}

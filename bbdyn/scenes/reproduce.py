@@ -42,6 +42,7 @@ DOCS_FIGURES = {
     "B4": ("full", "B4_full"),
     "B5": ("medium", "B5_medium"),
     "B6": ("full", "B6_full"),
+    "B7": ("medium", "B7_medium"),
 }
 #: scene id -> setting values that replace those of its ``DOCS_FIGURES`` setting (they are
 #: recorded in the figure's provenance).  B6: the full setting around 85.2 Hz only; all
