@@ -29,6 +29,7 @@ import numpy as np
 from bbdyn.core.tolerances import DOT_ROUND_PER_TERM
 
 __all__ = [
+    "drift_removed",
     "drift_velocity",
     "einstein_D",
     "einstein_D_bootstrap",
@@ -66,9 +67,13 @@ def _slope_D(times, disp, mask):
     return 0.5 * per_particle.mean(), 0.5 * per_particle.std(ddof=1) / np.sqrt(n)
 
 
-def _drift_removed(disp):
-    """Displacements about their mean at each time, scaled by ``sqrt(n / (n - 1))`` so that
-    the mean of their squares is the unbiased variance about the drift."""
+def drift_removed(displacements):
+    """Displacements (n, m) about their mean at each time, scaled by ``sqrt(n / (n - 1))``
+    so that the mean of their squares is the unbiased variance about the drift (n >= 2).
+
+    Every estimator of D applied to them measures the spread about the drift, as a tilted
+    floor needs (``einstein_D(..., drift=True)``)."""
+    disp = np.asarray(displacements, dtype=float)
     n = disp.shape[0]
     return (disp - disp.mean(axis=0)) * math.sqrt(n / (n - 1))
 
@@ -139,7 +144,7 @@ def einstein_D(times, displacements, window=(0.5, 1.0), drift=False):
     """
     times, disp = _check(times, displacements)
     if drift:
-        disp = _drift_removed(disp)
+        disp = drift_removed(disp)
     return _slope_D(times, disp, _window_mask(times, window))
 
 
@@ -166,7 +171,7 @@ def einstein_D_windows(times, displacements, n_windows=4, start=0.2, drift=False
     """
     times, disp = _check(times, displacements)
     if drift:
-        disp = _drift_removed(disp)
+        disp = drift_removed(disp)
     if int(n_windows) < 1:
         raise ValueError(f"n_windows must be >= 1, got {n_windows}")
     if not 0.0 <= start < 1.0:

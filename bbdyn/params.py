@@ -67,9 +67,12 @@ LIMITS = {
     "g": (1e-6, 1e12),
     "d": (1e-6, 1e6),
     "R": (0.0, 1e12),
-    "phi": (-15.0, 15.0),
 }
-UNITS = {"f": "Hz", "A": "mm", "g": "mm/s^2", "d": "mm", "R": "mm", "phi": "degrees"}
+UNITS = {"f": "Hz", "A": "mm", "g": "mm/s^2", "d": "mm", "R": "mm"}
+#: Largest tilt ``|phi|`` (degrees): a few times the arcs' own slope at the defaults (about
+#: 2.3 degrees), well inside the range where a particle resting on an arc is held by static
+#: friction in the model (docs/model.md, "Tilted floor").
+PHI_MAX = 15.0
 RANGE_REASON = "bbdyn's supported range: generous, and bounded so that Gamma, h and R^2 stay finite"
 
 
@@ -150,6 +153,11 @@ class Params:
                 raise ValueError(f"{name} must be in [0, 1], got {value}")
         for name in LIMITS:
             _check_range(name, getattr(self, name))
+        if not abs(self.phi) <= PHI_MAX:
+            raise ValueError(
+                f"phi must be in [-{PHI_MAX:g}, {PHI_MAX:g}] degrees, got {self.phi:g} "
+                "(a tilt of a few degrees is the model's range)"
+            )
         if self.R <= self.d / 2:
             raise ValueError(
                 f"R must be > d/2 = {self.d / 2:g} mm, got {self.R:g}: at R = d/2 the arcs are "

@@ -73,6 +73,7 @@ KINDS = {
     "scene_b4": "bbdyn.scenes.b4_higher_tongues",
     "scene_b5": "bbdyn.scenes.b5_lyapunov",
     "scene_b6": "bbdyn.scenes.b6_fine_structure",
+    "scene_b7": "bbdyn.scenes.b7_tilt",
     "frequency_scan_scene": "bbdyn.scenes.frequency_scene",
     "scene_s10": "bbdyn.scenes.s10_green_kubo",
     "scene_s1": "bbdyn.scenes.s1_tongues",

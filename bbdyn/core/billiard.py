@@ -344,6 +344,16 @@ def tangent_departure(sn, xi0, S0, vx, tc, kp):
 
 
 @njit(cache=True, fastmath=FMA, inline="always")
+def tangent_rate(xi0, S0, vx, vyrel):
+    """The gap's rate ``G'(0) = vyrel + vx xi0 / S0 = R V.n / S0`` (mm/s) of a flight from
+    ``xi0`` (``S0 = arc_root(xi0)``), and whether it is 0 within the rounding of its terms
+    (``DEPARTURE_REL_TOL``): a tangent departure, which must not count as leaving."""
+    inv_S0 = 1.0 / S0
+    Gp = vyrel + vx * xi0 * inv_S0
+    return Gp, abs(Gp) <= DEPARTURE_REL_TOL * (abs(vyrel) + abs(vx * xi0) * inv_S0)
+
+
+@njit(cache=True, fastmath=FMA, inline="always")
 def tiny_hop(sn, cs, xi0, S0, vx, vyrel, Gp, kp):
     """A short hop on one arc, solved from the Taylor polynomial of its gap (chattering).
 
@@ -466,9 +476,8 @@ def flight_search(phase, sn, cs, xi0, S0, vx, vyrel, kp):
         k_base = -1.0
     if k_base != 0.0:
         S0 = arc_root(xi0, kp)
-    inv_S0 = 1.0 / S0  # the one division by S0 (tiny_hop's gap_coefficients shares it)
-    Gp = vyrel + vx * xi0 * inv_S0  # = R V.n / S0
-    if abs(Gp) <= DEPARTURE_REL_TOL * (abs(vyrel) + abs(vx * xi0) * inv_S0):
+    Gp, tangent = tangent_rate(xi0, S0, vx, vyrel)
+    if tangent:
         Gp = 0.0  # tangent departure (alpha = 0): rounding of V.n = 0 must not count
     elif Gp > 0.0 and abs(xi0) < half and not tilted:  # tiny_hop takes xi linear in tau
         tau, xi, vyrel_minus, solved = tiny_hop(sn, cs, xi0, S0, vx, vyrel, Gp, kp)
@@ -665,6 +674,9 @@ def chatter_sum(cs, xi, S, vn, vt, g_eff, kp):
     # the floor-frame pull (g_t, -g_eff) along -n and t, times R (tilt: g_t != 0)
     pull_n = g_eff * S - kp.g_t * xi
     pull_t = g_eff * xi + kp.g_t * S
+    # the drive must not undo the pull during the sequence: its normal part changes at most
+    # at A w^3 S / R against g0 = pull_n / R (untilted: A w^3 against g_eff)
+    g_hold = g_eff if kp.g_t == 0.0 else pull_n / S
     g0 = pull_n / R
     eps = vt * vt / pull_n
     g_n = g0 * (1.0 - eps)
@@ -676,11 +688,11 @@ def chatter_sum(cs, xi, S, vn, vt, g_eff, kp):
     # (every test below grows with tau_inf): refuse them before summing the series.
     tau_low = tau0 * (1.0 / (1.0 - alpha))
     drive_low = (aw3 * cos_abs + aw3 * w * tau_low) * tau_low
-    if not (aw3 * tau_low < 0.5 * g_eff and drive_low * tau_low <= budget):
+    if not (aw3 * tau_low < 0.5 * g_hold and drive_low * tau_low <= budget):
         return math.inf, 0.0
     F, _, rest_F = shrinking_series(eps, alpha, beta * beta)
     tau_inf = tau0 * F
-    if not aw3 * tau_inf < 0.5 * g_eff:
+    if not aw3 * tau_inf < 0.5 * g_hold:
         return math.inf, 0.0
     ab = alpha * beta
     g_t = pull_t / R
@@ -691,7 +703,7 @@ def chatter_sum(cs, xi, S, vn, vt, g_eff, kp):
     drive = (aw3 * cos_abs + aw3 * w * tau_inf) * tau_inf
     gained = (2.0 * abs(vt) * abs(g_t) + g_t * g_t * tau_inf) * tau_inf / R
     curvature = eps * g0 * (vn * vn / g_n + (vt * tau0) ** 2 / R) / R
-    pull = drive + (g_eff + abs(kp.g_t)) * ds_bound / R + gained + curvature
+    pull = drive + (abs(g_eff) + abs(kp.g_t)) * ds_bound / R + gained + curvature
     if not pull * tau_inf + tau0 * rest_F * g_n <= budget:
         return math.inf, 0.0
     return tau_inf, ds
@@ -783,13 +795,18 @@ def collide(periods, phase, sn, cs, tile, xi, vx, vyrel, kp):
     if not (math.isfinite(vx) and math.isfinite(vyrel)):
         state = EventState(periods, phase, tile, xi, vx, vyrel, IMPACT)
         return state, NON_FINITE, Trig(sn, cs, S)
-    if g_eff > 0.0 and kp.beta < 1.0:
-        if kp.g_t == 0.0:
+    tilted = kp.g_t != 0.0
+    # pressed onto the arc: the floor-frame pull along -n, (g_eff S - g_t xi) / R, is > 0
+    pressed = g_eff > 0.0 if not tilted else g_eff * S - kp.g_t * xi > 0.0
+    if pressed and kp.beta < 1.0:
+        if not tilted:
             g_n = (g_eff * S - vt * vt) / kp.R
-        else:  # tilted: the pull along -n is (g_eff S - g_t xi) / R
+        else:
             g_n = (g_eff * S - kp.g_t * xi - vt * vt) / kp.R
         if g_n > 0.0:
-            if vn <= 0.0:  # 0, or a rounding of 0 after a tangent wedge reflection
+            # vn = 0, or a rounding of 0 after a tangent wedge reflection; tilted, also a
+            # velocity the flight search takes for tangent (it could not leave: g_n > 0)
+            if vn <= 0.0 or (tilted and tangent_rate(xi, S, vx, vyrel)[1]):
                 return EventState(periods, phase, tile, xi, 0.0, 0.0, STICK), OK, Trig(sn, cs, S)
             tau_inf, ds = chatter_sum(cs, xi, S, vn, vt, g_eff, kp)
             if tau_inf < math.inf:

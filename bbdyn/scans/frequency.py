@@ -35,7 +35,14 @@ import numpy as np
 
 from bbdyn.core.status import STUCK_FOREVER
 from bbdyn.core.tolerances import OBS_INTEGRAL_REL_TOL, SUM_ROUND_PER_TERM
-from bbdyn.diffusion import einstein_D, einstein_D_bootstrap, einstein_D_windows, window_consistency
+from bbdyn.diffusion import (
+    drift_removed,
+    drift_velocity,
+    einstein_D,
+    einstein_D_bootstrap,
+    einstein_D_windows,
+    window_consistency,
+)
 from bbdyn.ensemble import ensemble
 from bbdyn.params import Params
 from bbdyn.runs import EVENT_COST_S, EVENTS_PER_PERIOD, check_n, check_run, check_size
@@ -255,6 +262,7 @@ def diffusion_point(
     beta: float | None = None,
     R: float | None = None,
     d: float | None = None,
+    phi: float | None = None,
 ) -> dict[str, float | np.ndarray]:
     """D and the steady-state energies of the reference ensemble at one frequency.
 
@@ -274,8 +282,10 @@ def diffusion_point(
         Equally spaced displacement samples in ``[0, t]`` (the MSD curve), >= 11.
     n_boot : int
         Bootstrap resamples of D.
-    A, alpha, beta, R, d : float, optional
-        Other parameters (default parameters (docs/model.md) if None).
+    A, alpha, beta, R, d, phi : float, optional
+        Other parameters (default parameters (docs/model.md) if None).  With a tilt
+        (``phi != 0``) every D and ``msd`` are about the drift (``bbdyn.diffusion.drift_removed``);
+        the drift velocity ``v_d``, ``v_d_se`` (mm/s) is added.
 
     Returns
     -------
@@ -293,7 +303,7 @@ def diffusion_point(
     >>> out["trapped"], out["D"], out["D_se"]
     (1, 0.0, 0.0)
     """
-    given = (("A", A), ("alpha", alpha), ("beta", beta), ("R", R), ("d", d))
+    given = (("A", A), ("alpha", alpha), ("beta", beta), ("R", R), ("d", d), ("phi", phi))
     changes = {k: v for k, v in given if v is not None}
     params = Params(f=f, **changes)
     n = _check_point_arguments(params, n, t, transient, n_samples)
@@ -305,6 +315,9 @@ def diffusion_point(
     disp = res["displacement"]
 
     out: dict[str, float | np.ndarray] = {"gamma": params.gamma}
+    if params.phi != 0.0:
+        out["v_d"], out["v_d_se"] = (float(v) for v in drift_velocity(times, disp, D_WINDOW))
+        disp = drift_removed(disp)
     # stuck for good before the first D window: x is constant in every window, D = 0
     # exactly (a fit would return rounding noise, and a test of it noise about noise)
     stick_periods = res["final"][:, 0] + res["final"][:, 1] / (2 * math.pi)
@@ -415,9 +428,9 @@ def _model_changes(model: dict) -> dict[str, float]:
     """The entries of ``model`` that differ from the ``Params`` defaults (ValueError for a
     name ``diffusion_point`` does not take)."""
     defaults = Params(f=1.0).to_dict()
-    unknown = sorted(set(model) - {"A", "alpha", "beta", "R", "d"})
+    unknown = sorted(set(model) - {"A", "alpha", "beta", "R", "d", "phi"})
     if unknown:
-        raise ValueError(f"model takes A, alpha, beta, R, d; got {', '.join(unknown)}")
+        raise ValueError(f"model takes A, alpha, beta, R, d, phi; got {', '.join(unknown)}")
     return {k: float(v) for k, v in model.items() if float(v) != defaults[k]}
 
 

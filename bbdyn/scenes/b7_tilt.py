@@ -47,12 +47,13 @@ Z_LINEAR = 3.0
 #: Standard errors below zero for a drift to count as uphill (negative mobility).
 Z_UPHILL = 3.0
 #: Outputs per ensemble.
-KEYS = ("v_d", "v_d_se", "mobility", "mobility_se", "D", "D_se", "cpu_s")
+KEYS = ("v_d", "v_d_se", "mobility", "mobility_se", "D", "D_se", "cpu_s", "n_failed")
 
 
 class SceneB7Result(Result):
     """Arrays (n_f,): ``f`` (Hz), ``v_d``/``v_d_se`` (mm/s), ``mobility``/``mobility_se`` (s),
-    ``D``/``D_se`` (mm^2/s, about the drift), ``cpu_s`` (CPU s of the point); ``tongues``
+    ``D``/``D_se`` (mm^2/s, about the drift), ``cpu_s`` (CPU s of the point), ``n_failed``
+    (particles whose kernel failed, left out of the estimates); ``tongues``
     (k, 2) k/1 bands (Hz).  Sweep, arrays (2, m): ``sweep_phi`` (degrees) and the same
     ``sweep_*`` outputs; ``sweep_f`` (2,) Hz."""
 
@@ -78,7 +79,8 @@ def drift_point(f: float, phi: float, n: int, t: float, seed: int) -> dict[str, 
     D, D_se = res.D()
     g_t = params.g_t
     return {"v_d": v, "v_d_se": v_se, "mobility": v / g_t, "mobility_se": v_se / abs(g_t),
-            "D": D, "D_se": D_se, "cpu_s": time.process_time() - cpu}  # fmt: skip
+            "D": D, "D_se": D_se, "cpu_s": time.process_time() - cpu,
+            "n_failed": float(np.count_nonzero(~res.ok))}  # fmt: skip
 
 
 def cost(settings: dict, rate_s: float | None = None) -> dict[str, float]:
@@ -147,6 +149,7 @@ def key_numbers(result: Result) -> dict:
         "n_uphill": int(uphill.size),
         "cpu_s": float(result["cpu_s"].sum() + result["sweep_cpu_s"].sum()),
         "cpu_s_per_particle_second": cpu_rate(result),
+        "n_failed": int(result["n_failed"].sum() + result["sweep_n_failed"].sum()),
         "sweep": {},
     }
     for i, fs in enumerate(result["sweep_f"]):
