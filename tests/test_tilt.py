@@ -128,3 +128,33 @@ def test_tilted_flat_floor_normal_motion_is_the_flat_map(vx0):
         assert abs(a[4][n] - vx_expected) <= tol * (1 + abs(vx0) + p.g_t), n
         tiles.add(a[2][n])
     assert len(tiles) > 20  # the flights do cross tiles
+
+
+def test_pressed_tangent_chatter_sticks():
+    """63 Hz, phi = 0.5: a particle chattering uphill near a left wedge just after the
+    untilted release phase is still pressed onto the arc by the tilt; its hops shrink until
+    the flight search would take the velocity for tangent.  It must stick there (it once
+    ended in BAD_STATE, the tangent departure refused, after 905 events)."""
+    from bbdyn.billiard import state_from_section
+
+    p = Params(f=63.0, phi=0.5)
+    state = state_from_section(p, 0.7913256621275528, 32.82046129728438, 17.543969297991083)
+    a, status = run_arrays(p.kernel(), tuple(state), 1200)
+    assert status == OK and np.count_nonzero(a[6] == STICK) > 0
+
+
+def test_diffusion_about_the_drift():
+    """Brownian paths with drift v and diffusion D: the MSD slope carries v^2 t, the variance
+    about the mean does not; drift_velocity recovers v (both within 4 standard errors)."""
+    from bbdyn.diffusion import drift_velocity, einstein_D
+
+    rng = np.random.default_rng(1)
+    t = np.linspace(0.05, 5.0, 100)
+    v, D = 3.0, 0.7
+    steps = rng.normal(0.0, np.sqrt(2 * D * 0.05), (3000, 100))
+    x = v * t + np.cumsum(steps, axis=1)
+    D_drift, se = einstein_D(t, x, drift=True)
+    D_raw, _ = einstein_D(t, x)
+    v_d, v_se = drift_velocity(t, x)
+    assert abs(D_drift - D) < 4 * se and D_raw > D + 10 * se
+    assert abs(v_d - v) < 4 * v_se
