@@ -40,8 +40,10 @@ def test_mirror_symmetry_is_exact(f):
     bit (floor, wedge rule and search are symmetric), hence v_d(-phi) = -v_d(phi) exactly."""
     kp_p, kp_m = Params(f=f, phi=1.0).kernel(), Params(f=f, phi=-1.0).kernel()
     drift = []
-    for xi0, vx0, vy0 in ((0.3, 40.0, 60.0), (-0.7, -15.0, 120.0), (0.0, 0.0, 80.0)):
-        state = (0.0, 0.5, 0.0, xi0, vx0, vy0, IMPACT)
+    starts = [(0.3, 40.0, 60.0, IMPACT), (-0.7, -15.0, 120.0, IMPACT), (0.0, 0.0, 80.0, IMPACT),
+              (1.0, 0.0, 0.0, STICK)]  # the last at rest in a wedge  # fmt: skip
+    for xi0, vx0, vy0, kind in starts:
+        state = (0.0, 0.5, 0.0, xi0, vx0, vy0, kind)
         a, sa = run_arrays(kp_p, state, 3000)
         b, sb = run_arrays(kp_m, mirrored(state), 3000)
         assert sa == sb == OK

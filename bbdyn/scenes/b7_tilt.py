@@ -6,8 +6,9 @@ displacement, one standard error over particles), the mobility ``v_d / (g sin ph
 the diffusion coefficient about the drift (``einstein_D(..., drift=True)``), with the flat
 ball's stable k/1 orbits shaded (closed-form tongues with ``g cos phi``).  Right panel: the
 mobility against ``phi`` at two frequencies (log scale in phi), whose flat part is the
-linear response; ``key_numbers`` gives where it ends (the first tilt whose mobility differs
-from the smallest tilt's by more than ``Z_LINEAR`` combined standard errors).
+linear response; ``key_numbers`` gives where it ends (``linear_range``: the first tilt whose
+mobility differs from the smallest tilt's by more than ``Z_LINEAR`` combined standard
+errors) and the widest run of neighbouring tilts with one mobility (``plateau``).
 
 Every point is an ensemble from the reference box (``bbdyn.ensemble.ensemble``, seed
 ``seed``), run on one thread; its CPU time is stored (``cpu_s``), so the cost of a setting
@@ -34,13 +35,15 @@ QUICK = {
 #: The setting of the figure in the docs (fits the figure budget of 2 shared cores).
 MEDIUM = {
     "f_start": 49.8, "f_stop": 95.0, "f_step": 0.4, "phi": 0.5, "n": 500, "t": 20.0,
-    "sweep_f": (58.0, 85.2), "sweep_phi": (0.02, 0.05, 0.1, 0.2, 0.5, 1.0, 2.0, 4.0, 8.0),
-    "sweep_n": 1000, "sweep_t": 20.0,
+    "sweep_f": (58.0, 85.2),
+    "sweep_phi": (0.01, 0.02, 0.05, 0.1, 0.2, 0.5, 1.0, 2.0, 4.0, 8.0),
+    "sweep_n": 2000, "sweep_t": 20.0,
 }  # fmt: skip
 FULL = {
     "f_start": 49.8, "f_stop": 95.0, "f_step": 0.2, "phi": 0.5, "n": 2000, "t": 40.0,
-    "sweep_f": (58.0, 85.2), "sweep_phi": (0.02, 0.05, 0.1, 0.2, 0.5, 1.0, 2.0, 4.0, 8.0),
-    "sweep_n": 2000, "sweep_t": 40.0,
+    "sweep_f": (58.0, 85.2),
+    "sweep_phi": (0.01, 0.02, 0.05, 0.1, 0.2, 0.5, 1.0, 2.0, 4.0, 8.0),
+    "sweep_n": 4000, "sweep_t": 40.0,
 }  # fmt: skip
 #: Combined standard errors beyond which a mobility leaves the linear response.
 Z_LINEAR = 3.0
@@ -133,6 +136,28 @@ def linear_range(phi: np.ndarray, mu: np.ndarray, mu_se: np.ndarray) -> tuple[fl
     return float(phi[off[0]]), float(phi[off[0] + 1])
 
 
+def plateau(phi: np.ndarray, mu: np.ndarray, mu_se: np.ndarray) -> dict:
+    """The widest run of neighbouring tilts whose mobilities all lie within ``Z_LINEAR``
+    standard errors (each combined with the weighted mean's) of their weighted mean: its
+    first and last tilt (degrees), the mean with its standard error (s) and the next tilt
+    (NaN at the end of the sweep)."""
+    best = (0, 0)
+    for i in range(phi.size):
+        for j in range(i + 1, phi.size + 1):
+            w = 1.0 / mu_se[i:j] ** 2
+            mean, se = np.sum(w * mu[i:j]) / np.sum(w), 1.0 / math.sqrt(np.sum(w))
+            if np.any(np.abs(mu[i:j] - mean) > Z_LINEAR * np.hypot(mu_se[i:j], se)):
+                break
+            if j - i > best[1] - best[0]:
+                best = (i, j)
+    i, j = best
+    w = 1.0 / mu_se[i:j] ** 2
+    return {"from": float(phi[i]), "to": float(phi[j - 1]),
+            "mobility": {"value": float(np.sum(w * mu[i:j]) / np.sum(w)),
+                         "se": float(1.0 / math.sqrt(np.sum(w)))},
+            "next": float(phi[j]) if j < phi.size else math.nan}  # fmt: skip
+
+
 def key_numbers(result: Result) -> dict:
     """The numbers docs/tilt.md quotes (values with standard errors as ``{"value", "se"}``)."""
     f, v, se = result["f"], result["v_d"], result["v_d_se"]
@@ -163,6 +188,7 @@ def key_numbers(result: Result) -> dict:
             "first_nonlinear": first_off,
             "mobility_largest": {"value": float(m[-1]), "se": float(m_se[-1])},
             "phi_largest": float(phi[-1]),
+            "plateau": plateau(phi, m, m_se),
         }
     return out
 
