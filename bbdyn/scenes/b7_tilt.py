@@ -189,7 +189,9 @@ def key_numbers(result: Result) -> dict:
             "mobility_largest": {"value": float(m[-1]), "se": float(m_se[-1])},
             "phi_largest": float(phi[-1]),
             "plateau": plateau(phi, m, m_se),
-        }
+            "mobility": {f"{x:g}": {"value": float(v), "se": float(e)}
+                         for x, v, e in zip(phi, m, m_se, strict=True)},
+        }  # fmt: skip
     return out
 
 
