@@ -160,3 +160,11 @@ def test_diffusion_about_the_drift():
     v_d, v_se = drift_velocity(t, x)
     assert abs(D_drift - D) < 4 * se and D_raw > D + 10 * se
     assert abs(v_d - v) < 4 * v_se
+
+
+def test_tilt_refused_where_not_modelled():
+    """The billiard's tangent dynamics is untilted: Lyapunov exponents refuse phi != 0."""
+    from bbdyn.lyapunov import billiard_lyapunov
+
+    with pytest.raises(ValueError, match="untilted floor only"):
+        billiard_lyapunov(Params(f=85.2, phi=1.0), 2, t=1.0)

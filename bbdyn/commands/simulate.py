@@ -1,5 +1,5 @@
-"""`bbdyn simulate --f F [--A --alpha --beta --R --d] [--n N --t T --seed S] [--fast-forward M]
-[--json]`: one run.
+"""`bbdyn simulate --f F [--A --alpha --beta --R --d --phi] [--n N --t T --seed S]
+[--fast-forward M] [--json]`: one run.
 
 Prints the Einstein D with its standard error (late-window MSD slope), the
 period-averaged energies, the stuck fraction and the collision rate of the
@@ -7,7 +7,7 @@ reference ensemble (docs/model.md, section 3), with the parameters, seed, versio
 and wall time.  Progress is shown on stderr when it is a terminal (not with --json).
 
 JSON keys (docs/schema.md): ``version``, ``params`` (f Hz, A mm, g mm/s^2, alpha, beta,
-R mm, d mm), ``seed``, ``gamma``, ``n``, ``t``, ``transient`` (s), ``threads``,
+R mm, d mm, phi degrees), ``seed``, ``gamma``, ``n``, ``t``, ``transient`` (s), ``threads``,
 ``fast_forward``; ``n_ok``, ``n_failed``, ``failures``; ``D``, ``D_se`` (mm^2/s); ``E``,
 ``E_x``, ``E_y``, ``E_pot``, ``E_reference`` with ``_se`` (kg mm^2/s^2);
 ``stuck_fraction`` (``_se``); ``collision_rate``, ``jump_rate`` (per particle, 1/s);
