@@ -28,7 +28,7 @@ from bbdyn.core import features as core
 from bbdyn.core.ensemble import CARRY_WIDTH, CNT_WIDTH, RunTimes, run_features
 from bbdyn.core.features import FeatureThresholds
 from bbdyn.core.status import FAILURES
-from bbdyn.diffusion import einstein_D, einstein_D_windows, per_particle_slopes
+from bbdyn.diffusion import drift_velocity, einstein_D, einstein_D_windows, per_particle_slopes
 from bbdyn.ensemble import Box, initial_conditions, kernel_states, reference_box
 from bbdyn.params import Params, check_params
 from bbdyn.results import Result, make_meta
@@ -543,7 +543,7 @@ def classify_features(feat: FeatureResult, thresholds: Thresholds | None = None)
     for a in range(labels.max() + 1):
         mem = np.flatnonzero(labels == a)
         att = {"fraction": mem.size / n, "members": int(mem.size)}
-        att.update(attractor_D(times, disp[mem], window))
+        att.update(attractor_D(times, disp[mem], window, drift=p.phi != 0.0))
         for name, values in averages.items():
             att[name], att[name + "_se"] = _mean_se(values[mem])
         for name in ("tiny_fraction", "locked_fraction", "coherence", "flight_mean",
@@ -624,7 +624,7 @@ def classify_features(feat: FeatureResult, thresholds: Thresholds | None = None)
     return Classification(arrays, meta)
 
 
-def attractor_D(times, displacement, window=(0.5, 1.0)) -> dict:
+def attractor_D(times, displacement, window=(0.5, 1.0), drift=False) -> dict:
     """Einstein D of a group of trajectories (an attractor), as ``bbdyn simulate`` gives it.
 
     ``D`` and ``D_se`` (mm^2/s): ``bbdyn.diffusion.einstein_D``, the least-squares slope / 2
@@ -641,18 +641,27 @@ def attractor_D(times, displacement, window=(0.5, 1.0)) -> dict:
         ``x(t) - x(0)`` (mm) of the group's trajectories at ``times``.
     window : (float, float)
         As in ``einstein_D``.
+    drift : bool
+        A tilted floor: D about the group's mean drift (``einstein_D(..., drift=True)``),
+        and its drift velocity ``v_d``, ``v_d_se`` (mm/s, ``drift_velocity``) added.
     """
     if displacement.shape[0] < 2:
         nan = [math.nan] * 4
-        return {"D": math.nan, "D_se": math.nan,
-                "D_windows": {"t_centre": nan, "D": nan, "D_se": nan}}  # fmt: skip
-    D, se = einstein_D(times, displacement, window)
-    centres, D_w, se_w = einstein_D_windows(times, displacement)
-    return {
+        out = {"D": math.nan, "D_se": math.nan,
+               "D_windows": {"t_centre": nan, "D": nan, "D_se": nan}}  # fmt: skip
+        if drift:
+            out.update(v_d=math.nan, v_d_se=math.nan)
+        return out
+    D, se = einstein_D(times, displacement, window, drift=drift)
+    centres, D_w, se_w = einstein_D_windows(times, displacement, drift=drift)
+    out = {
         "D": float(D),
         "D_se": float(se),
         "D_windows": {"t_centre": centres.tolist(), "D": D_w.tolist(), "D_se": se_w.tolist()},
     }
+    if drift:
+        out["v_d"], out["v_d_se"] = (float(v) for v in drift_velocity(times, displacement, window))
+    return out
 
 
 def _mean_se(values):

@@ -13,6 +13,11 @@ per-particle squared displacements:
 so it is exactly the mean of the per-particle slopes ``s_i = sum_k c_k x_i(t_k)^2``.
 Particles are independent, hence the standard error of the slope is
 ``std(s_i) / sqrt(n)``, whatever the correlations along one trajectory.
+
+Under a drift (a tilted floor, docs/model.md "Tilt") the MSD grows as ``v_d^2 t^2 +
+2 D t``: ``D`` is then half the slope of the *variance* about the mean displacement
+(``einstein_D(..., drift=True)``), and the drift velocity ``v_d`` is the slope of the
+mean displacement (``drift_velocity``), both over the same late window.
 """
 
 from __future__ import annotations
@@ -24,6 +29,8 @@ import numpy as np
 from bbdyn.core.tolerances import DOT_ROUND_PER_TERM
 
 __all__ = [
+    "drift_removed",
+    "drift_velocity",
     "einstein_D",
     "einstein_D_bootstrap",
     "einstein_D_windows",
@@ -60,7 +67,49 @@ def _slope_D(times, disp, mask):
     return 0.5 * per_particle.mean(), 0.5 * per_particle.std(ddof=1) / np.sqrt(n)
 
 
-def einstein_D(times, displacements, window=(0.5, 1.0)):
+def drift_removed(displacements):
+    """Displacements (n, m) about their mean at each time, scaled by ``sqrt(n / (n - 1))``
+    so that the mean of their squares is the unbiased variance about the drift (n >= 2).
+
+    Every estimator of D applied to them measures the spread about the drift, as a tilted
+    floor needs (``einstein_D(..., drift=True)``)."""
+    disp = np.asarray(displacements, dtype=float)
+    n = disp.shape[0]
+    return (disp - disp.mean(axis=0)) * math.sqrt(n / (n - 1))
+
+
+def drift_velocity(times, displacements, window=(0.5, 1.0)):
+    """Drift velocity ``v_d`` and its standard error from the late-time mean displacement.
+
+    The least-squares slope of ``<x(t) - x(0)>`` over the window (the mean of the
+    per-particle slopes, so its standard error is ``std / sqrt(n)`` over particles);
+    ``<x(t) - x(0)> / t`` at large t, without the transient's offset.
+
+    Returns
+    -------
+    v_d, v_d_se : float
+        mm/s.
+
+    Examples
+    --------
+    >>> rng = np.random.default_rng(0)
+    >>> t = np.linspace(0.01, 1.0, 100)
+    >>> x = 2.0 * t + np.cumsum(rng.normal(0, 0.1, (2000, 100)), axis=1)
+    >>> v, se = drift_velocity(t, x)
+    >>> bool(abs(v - 2.0) < 4 * se)
+    True
+    """
+    times, disp = _check(times, displacements)
+    mask = _window_mask(times, window)
+    t = times[mask]
+    if t.size < 2:
+        raise ValueError(f"the window holds {t.size} sample time(s); need at least 2")
+    c = (t - t.mean()) / np.sum((t - t.mean()) ** 2)
+    per_particle = disp[:, mask] @ c
+    return per_particle.mean(), per_particle.std(ddof=1) / np.sqrt(per_particle.size)
+
+
+def einstein_D(times, displacements, window=(0.5, 1.0), drift=False):
     """Diffusion coefficient and its standard error from the late-time MSD slope.
 
     Parameters
@@ -72,6 +121,12 @@ def einstein_D(times, displacements, window=(0.5, 1.0)):
     window : (float, float)
         Fractions ``(start, end)`` of ``times[-1]``: the fit uses the sample times
         in ``[start * t_max, end * t_max]``.
+    drift : bool
+        If True, ``D`` is half the slope of the variance about the mean displacement
+        (the displacements are centred on their mean at each time and scaled by
+        ``sqrt(n / (n - 1))``: the unbiased variance), as it must be under a drift; the
+        standard error is that of the centred per-particle slopes (it neglects the
+        mean's own error, a relative correction of order 1/n).
 
     Returns
     -------
@@ -88,19 +143,26 @@ def einstein_D(times, displacements, window=(0.5, 1.0)):
     True
     """
     times, disp = _check(times, displacements)
+    if drift:
+        disp = drift_removed(disp)
+    return _slope_D(times, disp, _window_mask(times, window))
+
+
+def _window_mask(times, window):
+    """Sample times in ``[start * t_max, end * t_max]``, ``window = (start, end)``."""
     start, end = (float(v) for v in window)
     if not 0.0 <= start < end <= 1.0:
         raise ValueError(f"window must satisfy 0 <= start < end <= 1, got {window}")
     t_max = times[-1]
-    mask = (times >= start * t_max) & (times <= end * t_max)
-    return _slope_D(times, disp, mask)
+    return (times >= start * t_max) & (times <= end * t_max)
 
 
-def einstein_D_windows(times, displacements, n_windows=4, start=0.2):
+def einstein_D_windows(times, displacements, n_windows=4, start=0.2, drift=False):
     """D and its standard error from successive, disjoint late windows (convergence evidence).
 
     The interval ``[start * t_max, t_max]`` is cut into ``n_windows`` equal windows;
     a converged D gives estimates that agree within their errors and show no trend.
+    ``drift``: about the mean displacement, as in ``einstein_D``.
 
     Returns
     -------
@@ -108,6 +170,8 @@ def einstein_D_windows(times, displacements, n_windows=4, start=0.2):
         Window centres (s), and D (mm^2/s) with its standard error in each window.
     """
     times, disp = _check(times, displacements)
+    if drift:
+        disp = drift_removed(disp)
     if int(n_windows) < 1:
         raise ValueError(f"n_windows must be >= 1, got {n_windows}")
     if not 0.0 <= start < 1.0:

@@ -28,7 +28,7 @@ import numpy as np
 from bbdyn.approx.jumps import JumpData
 from bbdyn.core import ensemble as core
 from bbdyn.core.status import FAILURES, FAST_FORWARD_MODES
-from bbdyn.diffusion import einstein_D
+from bbdyn.diffusion import drift_velocity, einstein_D
 from bbdyn.gpu import CudaJob, check_device, device_info, run_cuda
 from bbdyn.params import Params, check_params
 from bbdyn.results import Result, make_meta
@@ -555,9 +555,17 @@ class EnsembleResult(Result):
     def D(self, window=(0.5, 1.0)) -> tuple[float, float]:
         """Einstein D and its standard error (mm^2/s) over the ``ok`` particles (>= 2 needed).
 
-        ``bbdyn.diffusion.einstein_D``.
+        ``bbdyn.diffusion.einstein_D``; on a tilted floor (``phi != 0``) about the mean drift.
         """
-        return einstein_D(self["sample_times"], self["displacement"][self.ok], window=window)
+        tilted = self.meta["params"].get("phi", 0.0) != 0.0
+        return einstein_D(
+            self["sample_times"], self["displacement"][self.ok], window=window, drift=tilted
+        )
+
+    def drift(self, window=(0.5, 1.0)) -> tuple[float, float]:
+        """Drift velocity ``v_d`` and its standard error (mm/s) over the ``ok`` particles:
+        ``bbdyn.diffusion.drift_velocity``."""
+        return drift_velocity(self["sample_times"], self["displacement"][self.ok], window=window)
 
     def jump_data(self):
         """The jumps in the averaging window as ``bbdyn.approx.JumpData``.

@@ -197,6 +197,16 @@ def _denominator(
     raise ValueError(f"per must be 'second' or {count!r}, got {per!r}")
 
 
+def _check_untilted(params: Params) -> None:
+    """Refuse a tilted floor: the billiard's tangent dynamics (``core.billiard_tangent``)
+    is that of the untilted model."""
+    if params.phi != 0.0:
+        raise ValueError(
+            f"the billiard's Lyapunov exponents are computed for an untilted floor only, got "
+            f"phi = {params.phi:g} degrees; use phi = 0"
+        )
+
+
 def _check_positive(name: str, value, unit: str) -> float:
     value = float(value)
     if not (math.isfinite(value) and value > 0):
@@ -598,6 +608,7 @@ def billiard_lyapunov_from(
         in the section coordinates ``(theta, x, vx, vyrel)`` (rad, mm, mm/s, mm/s), the
         others (``spectrum``) as a basis of its complement.
     """
+    _check_untilted(params)
     t = _check_positive("t", t, "s")
     transient = float(transient)
     if not (math.isfinite(transient) and transient >= 0):
@@ -701,6 +712,7 @@ def billiard_lyapunov(
     (2, 4)
     """
     n = _check_count("n", n)
+    _check_untilted(params)
     _check_windows(params, _check_positive("t", t, "s"), _check_count("windows", windows))
     start = time.perf_counter()
     labels = np.full(n, NOT_CLASSIFIED)

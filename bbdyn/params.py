@@ -28,8 +28,17 @@ class KernelParams(NamedTuple):
     a bound on the fifth derivative of the arc height on a tile, ``billiard.tiny_hop``) and
     the release window ``release_r <= phase < release_e`` (rad) where ``sin(phase) <
     -1/Gamma`` (``plate.release_window``: both -1 for Gamma <= 1), so that no flight or
-    stick computes its arcsine again.  ``eta``: the noise amplitude of the restitution
-    coefficients, read by the particle loop only (``core.noise``).
+    stick computes its arcsine again.
+
+    Tilt (docs/model.md, "Tilt"): ``g`` here is the component of gravity along the floor's
+    normal, ``g cos(phi)`` (the whole of g, bit for bit, at phi = 0), and ``gamma``,
+    ``curv_bound`` and the release window are formed with it; ``g_t = g sin(phi)`` is the
+    component along the floor, pulling towards +x (mm/s^2), and ``tilt_curv = |g_t| (d/2) /
+    c0`` bounds its contribution ``-b'(xi) g_t`` to the gap's second derivative (the arc's
+    slope is at most ``(d/2) / c0``, at the wedges).  Both are 0 at phi = 0.
+
+    ``eta``: the noise amplitude of the restitution coefficients, read by the particle loop
+    only (``core.noise``).
     """
 
     A: float
@@ -46,6 +55,8 @@ class KernelParams(NamedTuple):
     arc5_bound: float
     release_r: float
     release_e: float
+    g_t: float
+    tilt_curv: float
     eta: float
 
 
@@ -62,6 +73,10 @@ LIMITS = {
     "R": (0.0, 1e12),
 }
 UNITS = {"f": "Hz", "A": "mm", "g": "mm/s^2", "d": "mm", "R": "mm"}
+#: Largest tilt ``|phi|`` (degrees): a few times the arcs' own slope at the defaults (about
+#: 2.3 degrees), well inside the range where a particle resting on an arc is held by static
+#: friction in the model (docs/model.md, "Tilted floor").
+PHI_MAX = 15.0
 RANGE_REASON = "bbdyn's supported range: generous, and bounded so that Gamma, h and R^2 stay finite"
 
 
@@ -104,6 +119,11 @@ class Params:
         Radius of the circular scatterers in mm, in (d/2, 1e12]; default 25.
     d : float
         Width of one scatterer (tile) in mm, in [1e-6, 1e6]; default 2.
+    phi : float
+        Tilt of the whole apparatus in degrees, in [-15, 15]; default 0 (docs/model.md,
+        "Tilt").  The floor vibrates along its own normal; gravity has the component
+        ``g cos(phi)`` against that normal and ``g sin(phi)`` along the floor, towards +x
+        for phi > 0.
     eta : float
         Noise amplitude of the restitution coefficients, in [0, 1]; default 0 (deterministic).
         For eta > 0 every flight's collision draws its own alpha and beta, uniform on
@@ -131,10 +151,11 @@ class Params:
     beta: float = 0.99
     R: float = 25.0
     d: float = 2.0
+    phi: float = 0.0
     eta: float = 0.0
 
     def __post_init__(self) -> None:
-        for name in ("f", "A", "g", "alpha", "beta", "R", "d", "eta"):
+        for name in ("f", "A", "g", "alpha", "beta", "R", "d", "phi", "eta"):
             object.__setattr__(self, name, _check_real(name, getattr(self, name)))
         for name in ("alpha", "beta", "eta"):
             value = getattr(self, name)
@@ -142,10 +163,21 @@ class Params:
                 raise ValueError(f"{name} must be in [0, 1], got {value}")
         for name in LIMITS:
             _check_range(name, getattr(self, name))
+        if not abs(self.phi) <= PHI_MAX:
+            raise ValueError(
+                f"phi must be in [-{PHI_MAX:g}, {PHI_MAX:g}] degrees, got {self.phi:g} "
+                "(a tilt of a few degrees is the model's range)"
+            )
         if self.R <= self.d / 2:
             raise ValueError(
                 f"R must be > d/2 = {self.d / 2:g} mm, got {self.R:g}: at R = d/2 the arcs are "
                 "semicircles with vertical tangents at the wedges; use a larger R"
+            )
+        slope = math.degrees(math.atan2(self.d / 2, math.sqrt(self.R**2 - self.d**2 / 4)))
+        if abs(self.phi) + slope >= 90.0:
+            raise ValueError(
+                f"|phi| + the arcs' steepest slope ({slope:.4g} degrees) must stay below 90 "
+                f"degrees, got phi = {self.phi:g}: the floor would overhang; use a larger R"
             )
 
     # ---- derived quantities -------------------------------------------------
@@ -182,6 +214,16 @@ class Params:
         """Frequency (Hz) at which Gamma = 1, sqrt(g/A) / (2 pi); inf for A = 0."""
         return math.inf if self.A == 0 else math.sqrt(self.g / self.A) / (2.0 * math.pi)
 
+    @property
+    def g_n(self) -> float:
+        """Component of gravity against the floor's normal, g cos(phi) (mm/s^2)."""
+        return self.g * math.cos(math.radians(self.phi))
+
+    @property
+    def g_t(self) -> float:
+        """Component of gravity along the floor, g sin(phi), towards +x (mm/s^2)."""
+        return self.g * math.sin(math.radians(self.phi))
+
     def replace(self, **changes: float) -> Params:
         """A copy with some fields changed (validated again)."""
         return replace(self, **changes)
@@ -206,23 +248,27 @@ class Params:
         c0 = math.sqrt(self.R**2 - self.d**2 / 4)
         R2, half, c0_2 = self.R * self.R, 0.5 * self.d, c0 * c0
         arc5 = 15.0 * R2 * half * (3.0 * R2 + 4.0 * half * half) / (c0_2 * c0_2 * c0_2 * c0_2 * c0)
+        g = self.g_n  # cos(0) = 1: the same bits as g untilted
+        gamma = self.A * w**2 / g
         # the kernels' own compiled function: the same bits as computing it inside them
-        release_r, release_e = release_window(self.gamma)
+        release_r, release_e = release_window(gamma)
         return KernelParams(
             A=self.A,
             w=w,
-            g=self.g,
+            g=g,
             alpha=self.alpha,
             beta=self.beta,
             R=self.R,
             d=self.d,
-            gamma=self.gamma,
-            curv_bound=self.g + self.A * w * w,
+            gamma=gamma,
+            curv_bound=g + self.A * w * w,
             c0=c0,
             period=1.0 / self.f,
             arc5_bound=arc5,
             release_r=release_r,
             release_e=release_e,
+            g_t=self.g_t,
+            tilt_curv=abs(self.g_t) * half / c0,
             eta=self.eta,
         )
 

@@ -275,7 +275,7 @@ def trajectory_pieces(
     x0, y0 = result["x"][rows, None], result["y"][rows, None]
     vx, vy = result["vx"][rows, None], result["vy"][rows, None]
     theta = phase[rows, None] + kp.w * tau
-    x = x0 + np.where(stuck, 0.0, vx * tau)
+    x = x0 + np.where(stuck, 0.0, tau * (vx + 0.5 * kp.g_t * tau))
     # Riding the floor: y = y_p(t) + b(xi) with b = y0 - y_p(t0).
     ride = y0 + kp.A * (np.sin(phase[rows, None]) - np.sin(theta))
     y = np.where(stuck, ride, y0 + vy * tau - 0.5 * kp.g * tau * tau)

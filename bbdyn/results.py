@@ -74,6 +74,7 @@ KINDS = {
     "scene_b4": "bbdyn.scenes.b4_higher_tongues",
     "scene_b5": "bbdyn.scenes.b5_lyapunov",
     "scene_b6": "bbdyn.scenes.b6_fine_structure",
+    "scene_b7": "bbdyn.scenes.b7_tilt",
     "scene_b8": "bbdyn.scenes.b8_noise",
     "scene_b9": "bbdyn.scenes.b9_distributions",
     "frequency_scan_scene": "bbdyn.scenes.frequency_scene",

@@ -59,7 +59,7 @@ QUANTITIES: dict[str, tuple[str, str]] = {
     # ---- every output
     "version": ("", "bbdyn version that computed the numbers"),
     "params": ("", "model parameters of the run (the keys below: f, A, g, alpha, beta, R, d, "
-               "eta)"),
+               "phi, eta)"),
     "seed": ("", "seed of numpy's SeedSequence that drew the initial conditions (and keyed the "
              "random restitution, eta > 0)"),
     "cpu_s": ("s", "CPU time of the processes that did the work (kernel compilation on first "
@@ -74,6 +74,7 @@ QUANTITIES: dict[str, tuple[str, str]] = {
     "beta": ("", "tangential restitution"),
     "R": ("mm", "scatterer radius"),
     "d": ("mm", "scatterer width"),
+    "phi": ("degrees", "tilt of the floor, +x downhill for phi > 0 (docs/model.md, Tilt)"),
     "eta": ("", "noise amplitude of the restitution coefficients drawn per collision"),
     "gamma": ("", "Gamma = A w^2 / g, the dimensionless driving"),
     # ---- run settings
@@ -105,6 +106,7 @@ QUANTITIES: dict[str, tuple[str, str]] = {
     # ---- diffusion
     "D": ("mm^2/s", "Einstein diffusion coefficient, late-window MSD slope / 2"),
     "D_windows": ("", "D in successive time windows: t_centre, D, D_se"),
+    "v_d": ("mm/s", "drift velocity, late-window slope of the mean displacement"),
     "t_centre": ("s", "centre of a time window"),
     "D_converged": ("", "1 if D agrees in every window (p >= 0.01), else 0"),
     "D_windows_p": ("", "p-value of 'D is the same in every window'"),

@@ -207,11 +207,12 @@ MODEL_MEANINGS = {
     "R": "scatterer radius in mm, > d/2 (1e9 is nearly flat)",
     "d": "scatterer width in mm",
     "g": "gravity in mm/s^2",
+    "phi": "tilt of the floor in degrees, in [-15, 15]; +x is downhill for phi > 0",
     "eta": "noise amplitude of alpha and beta, drawn per collision, in [0, 1]",
 }
 #: The model options of a command that runs the billiard (``eta``: random restitution, for
 #: the commands that run ensembles; the deterministic ones leave it out).
-BILLIARD_OPTIONS = ("f", "A", "alpha", "beta", "R", "d", "eta")
+BILLIARD_OPTIONS = ("f", "A", "alpha", "beta", "R", "d", "phi", "eta")
 
 
 def add_model_arguments(parser, names=BILLIARD_OPTIONS, *, f_required: bool = True) -> None:

@@ -1,5 +1,5 @@
-"""`bbdyn simulate --f F [--A --alpha --beta --R --d] [--n N --t T --seed S] [--fast-forward M]
-[--device D] [--json]`: one run.
+"""`bbdyn simulate --f F [--A --alpha --beta --R --d --phi --eta] [--n N --t T --seed S]
+[--fast-forward M] [--device D] [--json]`: one run.
 
 Prints the Einstein D with its standard error (late-window MSD slope), the
 period-averaged energies, the stuck fraction and the collision rate of the
@@ -7,11 +7,12 @@ reference ensemble (docs/model.md, section 3), with the parameters, seed, versio
 and wall time.  Progress is shown on stderr when it is a terminal (not with --json).
 
 JSON keys (docs/schema.md): ``version``, ``params`` (f Hz, A mm, g mm/s^2, alpha, beta,
-R mm, d mm), ``seed``, ``gamma``, ``n``, ``t``, ``transient`` (s), ``threads``,
-``fast_forward``, ``device``, ``device_name``; ``n_ok``, ``n_failed``, ``failures``; ``D``,
-``D_se`` (mm^2/s); ``E``,
+R mm, d mm, phi degrees, eta), ``seed``, ``gamma``, ``n``, ``t``, ``transient`` (s),
+``threads``, ``fast_forward``, ``device``, ``device_name``; ``n_ok``, ``n_failed``,
+``failures``; ``D``, ``D_se`` (mm^2/s); ``E``,
 ``E_x``, ``E_y``, ``E_pot``, ``E_reference`` with ``_se`` (kg mm^2/s^2);
 ``stuck_fraction`` (``_se``); ``collision_rate``, ``jump_rate`` (per particle, 1/s);
+``v_d``, ``v_d_se`` (drift velocity, mm/s; D is about the drift when ``phi != 0``);
 ``D_windows`` (``t_centre`` s, ``D``, ``D_se``); ``collisions``; ``cpu_s``, ``wall_s`` (s);
 ``units`` (the unit of each dimensioned key).
 """
@@ -78,7 +79,10 @@ def simulate_summary(args) -> dict:
     out["fast_forward"] = res.meta["fast_forward"]
     out["device"], out["device_name"] = res.meta["device"], res.meta["device_name"]
     out.update(res.summary())
-    centres, D_w, se_w = einstein_D_windows(res["sample_times"], res["displacement"][res.ok])
+    out["v_d"], out["v_d_se"] = (float(v) for v in res.drift())
+    centres, D_w, se_w = einstein_D_windows(
+        res["sample_times"], res["displacement"][res.ok], drift=params.phi != 0.0
+    )
     out["D_windows"] = {"t_centre": centres.tolist(), "D": D_w.tolist(), "D_se": se_w.tolist()}
     out["collisions"] = int(res["collisions"].sum())
     return json_output(out, params=params.to_dict(), clock=clock, seed=args.seed)
@@ -93,6 +97,7 @@ def run(args) -> int:
     print(f"bbdyn {out['version']}  f = {p['f']} Hz  n = {out['n']}  t = {out['t']} s  "
           f"seed = {out['seed']}  (averages after {out['transient']:g} s)")  # fmt: skip
     print(f"  D              = {out['D']:.4g} +- {out['D_se']:.2g} mm^2/s")
+    print(f"  v_d            = {out['v_d']:.4g} +- {out['v_d_se']:.2g} mm/s")
     for name, unit in (("E", "kg mm^2/s^2"), ("E_x", ""), ("E_y", ""), ("E_pot", "")):
         print(f"  {name:<14} = {out[name]:.5g} +- {out[name + '_se']:.2g} {unit}")
     print(f"  A^2 w^2 / 2    = {out['E_reference']:.5g}")

@@ -72,7 +72,7 @@ from numba import njit
 
 from bbdyn.core.floor import arc_root, bounce, bounce_at, floor_drop
 from bbdyn.core.fmath import clamp, fmax2, fmin2
-from bbdyn.core.plate import advance_phase, sin_cos, stick_release
+from bbdyn.core.plate import advance_phase, release_window, sin_cos, stick_release_in
 from bbdyn.core.search import (
     cubic_safe_step,
     flat_flight_tol,
@@ -173,6 +173,89 @@ def tile_offset(xi0, vx, tau, d):
 
 
 @njit(cache=True, fastmath=FMA, inline="always")
+def tilted_tile_offset(xi0, vx, at, tau, d):
+    """``tile_offset`` of a tilted flight, ``xi(tau) = xi0 + vx tau + at tau^2 / 2``.
+
+    The wedge rule uses the sign of the velocity ``vx + at tau`` reached at ``tau``.
+    """
+    pos = (xi0 + 0.5 * d + tau * (vx + 0.5 * at * tau)) / d
+    if vx + at * tau < 0.0:
+        return math.ceil(pos) - 1.0
+    return math.floor(pos)
+
+
+@njit(cache=True, fastmath=FMA, inline="always")
+def tile_at(xi0, vx, tau, kp):
+    """Tile offset reached at ``tau``: ``tile_offset``, or ``tilted_tile_offset`` for g_t != 0."""
+    if kp.g_t == 0.0:
+        return tile_offset(xi0, vx, tau, kp.d)
+    return tilted_tile_offset(xi0, vx, kp.g_t, tau, kp.d)
+
+
+@njit(cache=True, fastmath=FMA, inline="always")
+def exit_root(c, vx, at, right):
+    """Root of ``at tau^2 / 2 + vx tau + c = 0`` at which ``vx + at tau = +sq`` (``right``) or
+    ``-sq`` (left), ``sq = sqrt(vx^2 - 2 at c)``: the time a parabolic motion passes the level
+    ``-c`` upwards (right) or downwards (left); inf if it never does.
+
+    Written without cancellation: ``-2 c / (vx + sq)`` for the right root, ``2 c / (sq - vx)``
+    for the left one, and ``(+-sq - vx) / at`` where that denominator vanishes.
+    """
+    disc = vx * vx - 2.0 * at * c
+    if not disc > 0.0:  # never reached, or touched at the turning point: no crossing
+        return math.inf
+    sq = math.sqrt(disc)
+    if right:
+        den = vx + sq
+        if den > 0.0:
+            return -2.0 * c / den
+        return (sq - vx) / at if at != 0.0 else math.inf
+    den = sq - vx
+    if den > 0.0:
+        return 2.0 * c / den
+    return (-sq - vx) / at if at != 0.0 else math.inf
+
+
+@njit(cache=True, fastmath=FMA, inline="always")
+def tilted_crossing(xi0, k, vx, at, tau, d):
+    """Next time (s) at or after ``tau`` at which a tilted flight leaves tile offset ``k``.
+
+    The flight is ``xi(t) = xi0 + vx t + at t^2 / 2`` (it may turn around).  It leaves
+    through the right wedge ``(k + 1/2) d`` only moving right and through the left one only
+    moving left (``exit_root``); a parabola passes each level at most once each way, so the
+    first such root at or after ``tau`` is the exit, and the root at which the particle
+    entered the tile (the other way) is never taken for it.  Returns ``(tc, direction)``,
+    ``direction`` = +1 or -1 the side it leaves by (``tc = inf`` if it never does).
+    """
+    t_right = exit_root(xi0 - (k + 0.5) * d, vx, at, True)
+    t_left = exit_root(xi0 - (k - 0.5) * d, vx, at, False)
+    if not t_right >= tau:
+        t_right = math.inf
+    if not t_left >= tau:
+        t_left = math.inf
+    if t_left < t_right:
+        return t_left, -1.0
+    return t_right, 1.0
+
+
+@njit(cache=True, fastmath=FMA, inline="always")
+def tilted_window(xi0, S0, vx, kp):
+    """Release window ``(theta_r, theta_e)`` (rad) of a tilted floor at ``xi0`` (docs/model.md,
+    "Tilt").
+
+    Resting at ``xi0`` (``vx = 0``) the normal force vanishes when ``g + A w^2 sin(phase) =
+    g_t xi0 / S0`` (``g`` the normal component): the window of ``Gamma = A w^2 / (g - g_t
+    xi0 / S0)``.  After a start with ``vx = 0`` the particle moves towards ``g_t``, so ``g_t
+    xi / S`` only grows and ``G'' > 0`` in that window on the tile.  For ``vx != 0`` the
+    window is that of ``Gamma = A w^2 / (g + tilt_curv)``, in which ``G'' > 0`` everywhere.
+    """
+    aw2 = kp.A * kp.w * kp.w
+    if vx == 0.0:
+        return release_window(aw2 / (kp.g - kp.g_t * xi0 / S0))
+    return release_window(aw2 / (kp.g + kp.tilt_curv))
+
+
+@njit(cache=True, fastmath=FMA, inline="always")
 def segment_gap_phase(tau, k, phase_sin, phase_cos, xi0, S0, vx, vyrel, kp):
     """``segment_gap`` and the sine and cosine of the phase reached at ``tau``.
 
@@ -182,11 +265,16 @@ def segment_gap_phase(tau, k, phase_sin, phase_cos, xi0, S0, vx, vyrel, kp):
     """
     half = 0.5 * kp.d
     F, Fp, sn, cn = flat_gap_phase(vyrel, kp.g, kp.A, kp.w, phase_sin, phase_cos, tau)
-    dx = vx * tau - k * kp.d
+    if kp.g_t == 0.0:
+        dx = vx * tau - k * kp.d
+        vx_tau = vx
+    else:  # tilted: xi moves on a parabola
+        dx = tau * (vx + 0.5 * kp.g_t * tau) - k * kp.d
+        vx_tau = vx + kp.g_t * tau
     xi = clamp(xi0 + dx, -half, half)
     S = arc_root(xi, kp)
     G = F + floor_drop(dx, xi0, xi, S0, S)
-    Gp = Fp + vx * xi / S
+    Gp = Fp + vx_tau * xi / S
     G_env = F - xi0 * xi0 / (kp.R + S0)  # h - b(xi0) = xi0^2 / (R + S0)
     return G, Gp, G_env, Fp, xi, S, sn, cn
 
@@ -213,7 +301,7 @@ def flight_gap(phase, xi0, vx, vyrel, tau, kp):
     Independent of the search's bookkeeping (the tile is found from the
     position), for checks: ``G >= 0`` during a flight, ``G = 0`` at its end.
     """
-    k = tile_offset(xi0, vx, tau, kp.d)
+    k = tile_at(xi0, vx, tau, kp)
     S0 = arc_root(xi0, kp)
     sn, cs = sin_cos(phase)
     G = segment_gap(tau, k, sn, cs, xi0, S0, vx, vyrel, kp)[0]
@@ -230,20 +318,39 @@ def tangent_departure(sn, xi0, S0, vx, tc, kp):
     segment; the returned ``tau <= tc`` has ``J tau < DEPARTURE_MARGIN G''(0)`` (1.5), hence
     ``G > 0`` for 0 < t <= tau.  Returns 0 if ``G''(0) <= 0`` (it cannot leave).
     """
-    A, w, R = kp.A, kp.w, kp.R
+    A, w, R, g_t = kp.A, kp.w, kp.R, kp.g_t
     half = 0.5 * kp.d
     G2 = -kp.g - A * w * w * sn + R * R * vx * vx / (S0 * S0 * S0)
+    if g_t != 0.0:
+        G2 += g_t * xi0 / S0  # -b'(xi0) g_t
     if not G2 > 0.0:
         return 0.0
     tau = tc if tc < math.inf else 1.0 / w
     for _ in range(DEPARTURE_MAX_TRIES):
-        xm = fmin2(fmax2(abs(xi0), abs(xi0 + vx * tau)), half)
-        Sm = arc_root(xm, kp)
-        J = A * w * w * w + 3.0 * R * R * xm * abs(vx) ** 3 / Sm**5
+        if g_t == 0.0:
+            xm = fmin2(fmax2(abs(xi0), abs(xi0 + vx * tau)), half)
+            Sm = arc_root(xm, kp)
+            J = A * w * w * w + 3.0 * R * R * xm * abs(vx) ** 3 / Sm**5
+        else:
+            # |xi'| <= v and |xi| <= xm on [0, tau]; the jerk gains -3 b'' xi' g_t
+            v = abs(vx) + abs(g_t) * tau
+            xm = fmin2(abs(xi0) + tau * (abs(vx) + 0.5 * abs(g_t) * tau), half)
+            Sm = arc_root(xm, kp)
+            J = A * w * w * w + 3.0 * R * R * (xm * v**3 / Sm**5 + v * abs(g_t) / Sm**3)
         if J * tau < DEPARTURE_MARGIN * G2:
             return tau
         tau = fmin2(0.5 * tau, DEPARTURE_SHRINK * G2 / J)
     return 0.0
+
+
+@njit(cache=True, fastmath=FMA, inline="always")
+def tangent_rate(xi0, S0, vx, vyrel):
+    """The gap's rate ``G'(0) = vyrel + vx xi0 / S0 = R V.n / S0`` (mm/s) of a flight from
+    ``xi0`` (``S0 = arc_root(xi0)``), and whether it is 0 within the rounding of its terms
+    (``DEPARTURE_REL_TOL``): a tangent departure, which must not count as leaving."""
+    inv_S0 = 1.0 / S0
+    Gp = vyrel + vx * xi0 * inv_S0
+    return Gp, abs(Gp) <= DEPARTURE_REL_TOL * (abs(vyrel) + abs(vx * xi0) * inv_S0)
 
 
 @njit(cache=True, fastmath=FMA, inline="always")
@@ -352,23 +459,27 @@ def flight_search(phase, sn, cs, xi0, S0, vx, vyrel, kp):
     status : int
         ``OK``, ``BAD_STATE`` or ``ROOT_NOT_CONVERGED``.
     """
-    d, R, w, g, M = kp.d, kp.R, kp.w, kp.g, kp.curv_bound
+    d, R, w, g, g_t = kp.d, kp.R, kp.w, kp.g, kp.g_t
+    tilted = g_t != 0.0
+    tilt = kp.tilt_curv  # bound of -b' g_t in -G'' (0 untilted)
+    M = kp.curv_bound + tilt
     half = 0.5 * d
     k_base = 0.0
-    # A particle on a wedge moving away from its tile starts on the neighbour.
-    if vx > 0.0 and xi0 >= half:
+    # A particle on a wedge moving away from its tile starts on the neighbour (at rest on
+    # a tilted floor, it moves the way g_t pulls).
+    move = vx if vx != 0.0 else g_t
+    if move > 0.0 and xi0 >= half:
         xi0 = -half
         k_base = 1.0
-    elif vx < 0.0 and xi0 <= -half:
+    elif move < 0.0 and xi0 <= -half:
         xi0 = half
         k_base = -1.0
     if k_base != 0.0:
         S0 = arc_root(xi0, kp)
-    inv_S0 = 1.0 / S0  # the one division by S0 (tiny_hop's gap_coefficients shares it)
-    Gp = vyrel + vx * xi0 * inv_S0  # = R V.n / S0
-    if abs(Gp) <= DEPARTURE_REL_TOL * (abs(vyrel) + abs(vx * xi0) * inv_S0):
+    Gp, tangent = tangent_rate(xi0, S0, vx, vyrel)
+    if tangent:
         Gp = 0.0  # tangent departure (alpha = 0): rounding of V.n = 0 must not count
-    elif Gp > 0.0 and abs(xi0) < half:
+    elif Gp > 0.0 and abs(xi0) < half and not tilted:  # tiny_hop takes xi linear in tau
         tau, xi, vyrel_minus, solved = tiny_hop(sn, cs, xi0, S0, vx, vyrel, Gp, kp)
         if solved:
             return tau, k_base, xi, vyrel_minus, 0, OK
@@ -388,9 +499,13 @@ def flight_search(phase, sn, cs, xi0, S0, vx, vyrel, kp):
     G_envp = vyrel
     xi = xi0
     S = S0
-    tc = crossing_time(xi0, k, vx, d)
-    theta_r, theta_e = kp.release_r, kp.release_e  # where sin(phase) < -1/Gamma
-    if vx == 0.0 and theta_r < phase < theta_e:
+    if tilted:
+        tc, direction = tilted_crossing(xi0, k, vx, g_t, 0.0, d)
+        theta_r, theta_e = tilted_window(xi0, S0, vx, kp)
+    else:
+        tc = crossing_time(xi0, k, vx, d)
+        theta_r, theta_e = kp.release_r, kp.release_e  # where sin(phase) < -1/Gamma
+    if vx == 0.0 and theta_r < phase < theta_e and not tilted:
         # Released inside the window (a stick there lasts zero time): the particle stays
         # over xi0, so G is the flat ball's gap.  Near theta_e its contact is of third order
         # (G'' -> 0), which the flat search's cubic bound finds in a few steps where the
@@ -417,28 +532,35 @@ def flight_search(phase, sn, cs, xi0, S0, vx, vyrel, kp):
             k += direction
     elif not Gp > 0.0:
         return 0.0, k_base, xi0, vyrel, 0, BAD_STATE
-    tc = fmax2(crossing_time(xi0, k, vx, d), tau)
+    if tilted:
+        tc, direction = tilted_crossing(xi0, k, vx, g_t, tau, d)
+    else:
+        tc = fmax2(crossing_time(xi0, k, vx, d), tau)
 
     known = tau == 0.0  # the gap is known at tau: G = 0 at the start, else evaluated below
     for n in range(ROOT_MAX_STEPS):
         if not known:
             if tau_up < tau < tau_down:
                 tau = tau_down
-                k = tile_offset(xi0, vx, tau, d)
+                k = tile_at(xi0, vx, tau, kp)
             G, Gp, G_env, G_envp, xi, S, sn_t, cn_t = segment_gap_phase(
                 tau, k, sn, cs, xi0, S0, vx, vyrel, kp
             )
-            tc = fmax2(crossing_time(xi0, k, vx, d), tau)
+            if tilted:
+                tc, direction = tilted_crossing(xi0, k, vx, g_t, tau, d)
+            else:
+                tc = fmax2(crossing_time(xi0, k, vx, d), tau)
         known = False
         if G <= 0.0 and tau > 0.0:
             return tau, k + k_base, xi, G_envp, n, OK
-        if Gp < 0.0 and w * G < -TAYLOR_MAX_SPAN * Gp:
+        if Gp < 0.0 and w * G < -TAYLOR_MAX_SPAN * Gp and not tilted:  # xi linear in tau
             point = TilePoint(xi, S, vx, tc - tau)
             u, xi_c, Fp_c, solved = taylor_finish(tau, G, Gp, G_envp, sn_t, cn_t, point, kp)
             if solved:
                 return tau + u, k + k_base, xi_c, Fp_c, n + 1, OK
         # -G'' <= m + K s ahead of tau (on the tile, and for the envelope everywhere)
-        m = g + aw2 * sn_t + m_pad
+        m_drive = g + aw2 * sn_t + m_pad
+        m = m_drive + tilt
         s_tile = cubic_safe_step(G, Gp, m, M, K)
         if s_tile <= ROOT_STEP_REL * tau:
             return tau, k + k_base, xi, G_envp, n, OK
@@ -446,7 +568,7 @@ def flight_search(phase, sn, cs, xi0, S0, vx, vyrel, kp):
         room = tc - tau
         if s_env > fmin2(s_tile, room):
             tau += s_env
-            k = tile_offset(xi0, vx, tau, d)
+            k = tile_at(xi0, vx, tau, kp)
         elif s_tile >= room:
             tau = tc
             k += direction
@@ -456,12 +578,19 @@ def flight_search(phase, sn, cs, xi0, S0, vx, vyrel, kp):
             # step, the contact lies within ROOT_STEP_REL tau_next after tau_next; F' there
             # follows from its Taylor series (remainder <= A w^4 s^3 / 6, below eps F').
             s_up = s_tile + ROOT_STEP_REL * tau_next
-            m_low = m - 2.0 * m_pad - arc_curv
+            if tilted:  # the largest |xi'| on the step (xi' is linear in tau)
+                v_up = fmax2(abs(vx + g_t * tau), abs(vx + g_t * (tau + s_up)))
+                arc_curv = R * R * v_up * v_up / (kp.c0 * kp.c0 * kp.c0)
+            m_low = m_drive - 2.0 * m_pad - arc_curv - tilt
             upper = G + s_up * (Gp - s_up * (0.5 * m_low - s_up * (K / 6.0)))
             bracketed = upper < 0.0 and s_up < room  # contact on this tile
             if bracketed and L * s_tile**3 <= 6.0 * EPS * abs(G_envp):
-                Fp = G_envp - s_tile * (m - m_pad + 0.5 * s_tile * K * cn_t)
-                xi = clamp(xi0 + (vx * tau_next - k * d), -half, half)
+                Fp = G_envp - s_tile * (m_drive - m_pad + 0.5 * s_tile * K * cn_t)
+                if tilted:
+                    dx = tau_next * (vx + 0.5 * g_t * tau_next) - k * d
+                else:
+                    dx = vx * tau_next - k * d
+                xi = clamp(xi0 + dx, -half, half)
                 return tau_next, k + k_base, xi, Fp, n + 1, OK
             tau = tau_next
     return tau, k + k_base, xi, G_envp, ROOT_MAX_STEPS, ROOT_NOT_CONVERGED
@@ -508,9 +637,10 @@ def chatter_sum(cs, xi, S, vn, vt, g_eff, kp):
 
     After an impact at a phase with cosine ``cs``, with small normal velocity ``vn``
     (mm/s) at ``xi`` (``S = sqrt(R^2 - xi^2)``) the particle hops in the normal pull
-    ``g0 = g_eff S / R`` of the floor-frame gravity, less the centrifugal term of the
-    convex arc.  The tangential velocity is multiplied by beta at each bounce, so hop k
-    feels ``g0 (1 - eps beta^(2k))``, ``eps = vt^2 / (g_eff S)``, and lasts ``tau_k =
+    ``g0 = (g_eff S - g_t^tilt xi) / R`` of the floor-frame gravity ``(g_t^tilt, -g_eff)``
+    (``g_t^tilt = kp.g_t``, 0 untilted), less the centrifugal term of the convex arc.  The
+    tangential velocity is multiplied by beta at each bounce, so hop k feels ``g0 (1 - eps
+    beta^(2k))``, ``eps = vt^2 / (R g0)``, and lasts ``tau_k =
     alpha^k tau_0 / (1 - eps beta^(2k))``, ``tau_0 = 2 vn / g0``.  Expanding in eps and
     summing over k first::
 
@@ -519,13 +649,15 @@ def chatter_sum(cs, xi, S, vn, vt, g_eff, kp):
              + g_t tau_0^2 [alpha beta / ((1 - alpha^2)(1 - alpha beta)) + 1 / (2 (1 - alpha^2))]
 
     (``shrinking_series``: F(eps; alpha, beta^2) and F(eps; alpha beta, beta^2); ``g_t =
-    g_eff xi / R`` the tangential pull, whose term takes the flat flights and is off by at
-    most ``eps (2 - eps) / (1 - eps)^2`` of itself).
+    (g_eff xi + g_t^tilt S) / R`` the tangential pull, whose term takes the flat flights and
+    is off by at most ``eps (2 - eps) / (1 - eps)^2`` of itself; the velocity it adds in
+    each hop is carried, damped by beta, into the later hops: the geometric sums above).
 
     Neglected: the change of the drive during the sequence (rate at most ``A w^3 |cos| +
     A w^4 tau_inf``), which moves ``tau_inf`` by about ``rate tau_inf^2 / g_n``; and
     changes of the pull itself, each moving ``tau_inf`` by ``tau_inf`` times their size
-    over ``g_n = g0 (1 - eps)``: the turn of the normal over ``ds`` (``g_eff |ds| / R``),
+    over ``g_n = g0 (1 - eps)``: the turn of the normal over ``ds`` (``(g_eff + |g_t^tilt|)
+    |ds| / R``, the pull's size times the angle),
     the tangential speed gained from ``g_t`` (``(2 |vt| |g_t| tau_inf + (g_t tau_inf)^2) /
     R``) and the arc's curvature over a hop's height (``eps g0 (vn^2 / g_n + (vt tau_0)^2
     / R) / R``); and the series' rest beyond the terms summed (``shrinking_series``).  The
@@ -539,8 +671,14 @@ def chatter_sum(cs, xi, S, vn, vt, g_eff, kp):
     A, w, alpha, beta, R = kp.A, kp.w, kp.alpha, kp.beta, kp.R
     if alpha >= 1.0 or beta >= 1.0:
         return math.inf, 0.0
-    g0 = g_eff * S / R
-    eps = vt * vt / (g_eff * S)
+    # the floor-frame pull (g_t, -g_eff) along -n and t, times R (tilt: g_t != 0)
+    pull_n = g_eff * S - kp.g_t * xi
+    pull_t = g_eff * xi + kp.g_t * S
+    # the drive must not undo the pull during the sequence: its normal part changes at most
+    # at A w^3 S / R against g0 = pull_n / R (untilted: A w^3 against g_eff)
+    g_hold = g_eff if kp.g_t == 0.0 else pull_n / S
+    g0 = pull_n / R
+    eps = vt * vt / pull_n
     g_n = g0 * (1.0 - eps)
     tau0 = 2.0 * vn / g0
     aw3 = A * w * w * w
@@ -550,14 +688,14 @@ def chatter_sum(cs, xi, S, vn, vt, g_eff, kp):
     # (every test below grows with tau_inf): refuse them before summing the series.
     tau_low = tau0 * (1.0 / (1.0 - alpha))
     drive_low = (aw3 * cos_abs + aw3 * w * tau_low) * tau_low
-    if not (aw3 * tau_low < 0.5 * g_eff and drive_low * tau_low <= budget):
+    if not (aw3 * tau_low < 0.5 * g_hold and drive_low * tau_low <= budget):
         return math.inf, 0.0
     F, _, rest_F = shrinking_series(eps, alpha, beta * beta)
     tau_inf = tau0 * F
-    if not aw3 * tau_inf < 0.5 * g_eff:
+    if not aw3 * tau_inf < 0.5 * g_hold:
         return math.inf, 0.0
     ab = alpha * beta
-    g_t = g_eff * xi / R
+    g_t = pull_t / R
     one_a2 = 1.0 - alpha * alpha
     H, _, rest_H = shrinking_series(eps, ab, beta * beta)
     ds = vt * tau0 * H + g_t * tau0 * tau0 * (ab / (one_a2 * (1.0 - ab)) + 0.5 / one_a2)
@@ -565,7 +703,7 @@ def chatter_sum(cs, xi, S, vn, vt, g_eff, kp):
     drive = (aw3 * cos_abs + aw3 * w * tau_inf) * tau_inf
     gained = (2.0 * abs(vt) * abs(g_t) + g_t * g_t * tau_inf) * tau_inf / R
     curvature = eps * g0 * (vn * vn / g_n + (vt * tau0) ** 2 / R) / R
-    pull = drive + g_eff * ds_bound / R + gained + curvature
+    pull = drive + (abs(g_eff) + abs(kp.g_t)) * ds_bound / R + gained + curvature
     if not pull * tau_inf + tau0 * rest_F * g_n <= budget:
         return math.inf, 0.0
     return tau_inf, ds
@@ -657,10 +795,18 @@ def collide(periods, phase, sn, cs, tile, xi, vx, vyrel, kp):
     if not (math.isfinite(vx) and math.isfinite(vyrel)):
         state = EventState(periods, phase, tile, xi, vx, vyrel, IMPACT)
         return state, NON_FINITE, Trig(sn, cs, S)
-    if g_eff > 0.0 and kp.beta < 1.0:
-        g_n = (g_eff * S - vt * vt) / kp.R
+    tilted = kp.g_t != 0.0
+    # pressed onto the arc: the floor-frame pull along -n, (g_eff S - g_t xi) / R, is > 0
+    pressed = g_eff > 0.0 if not tilted else g_eff * S - kp.g_t * xi > 0.0
+    if pressed and kp.beta < 1.0:
+        if not tilted:
+            g_n = (g_eff * S - vt * vt) / kp.R
+        else:
+            g_n = (g_eff * S - kp.g_t * xi - vt * vt) / kp.R
         if g_n > 0.0:
-            if vn <= 0.0:  # 0, or a rounding of 0 after a tangent wedge reflection
+            # vn = 0, or a rounding of 0 after a tangent wedge reflection; tilted, also a
+            # velocity the flight search takes for tangent (it could not leave: g_n > 0)
+            if vn <= 0.0 or (tilted and tangent_rate(xi, S, vx, vyrel)[1]):
                 return EventState(periods, phase, tile, xi, 0.0, 0.0, STICK), OK, Trig(sn, cs, S)
             tau_inf, ds = chatter_sum(cs, xi, S, vn, vt, g_eff, kp)
             if tau_inf < math.inf:
@@ -674,6 +820,22 @@ def collide(periods, phase, sn, cs, tile, xi, vx, vyrel, kp):
                 state = EventState(periods, phase, tile, xi, 0.0, 0.0, STICK)
                 return state, OK, Trig(sn, cs, arc_root(xi, kp))
     return EventState(periods, phase, tile, xi, vx, vyrel, IMPACT), OK, Trig(sn, cs, S)
+
+
+@njit(cache=True, fastmath=FMA, inline="always")
+def uphill_wedge(tile, xi, kp):
+    """A point resting in a wedge of a tilted floor, on the arc that ``g_t`` pushes it into.
+
+    In the wedge the particle touches both arcs; the tangential pull presses it onto the
+    arc rising ahead of it (the left end of the right tile for ``g_t > 0``), which holds
+    it longest, so that arc's release window applies.  Returns ``(tile, xi)``.
+    """
+    half = 0.5 * kp.d
+    if kp.g_t > 0.0 and xi >= half:
+        return tile + 1.0, -half
+    if kp.g_t < 0.0 and xi <= -half:
+        return tile - 1.0, half
+    return tile, xi
 
 
 @njit(cache=True, fastmath=FMA, inline="always")
@@ -709,7 +871,12 @@ def event_search(state, trig, kp):
     """
     periods, phase, tile, xi, vx, vyrel, kind = state
     if kind == STICK:
-        periods_r, phase_r, status = stick_release(periods, phase, kp)
+        if kp.g_t == 0.0:
+            window = (kp.release_r, kp.release_e)
+        else:
+            tile, xi = uphill_wedge(tile, xi, kp)
+            window = tilted_window(xi, trig.S, 0.0, kp)
+        periods_r, phase_r, status = stick_release_in(periods, phase, window[0], window[1])
         if status != OK:
             return EventState(periods, phase, tile, xi, 0.0, 0.0, STICK), status, trig
         sn_r, cs_r = sin_cos(phase_r)
@@ -723,6 +890,8 @@ def event_search(state, trig, kp):
         return state, status, trig
     periods, phase = advance_phase(periods, phase, kp.w * tau)
     sn_c, cs_c = sin_cos(phase)
+    if kp.g_t != 0.0:  # tilted: the pull along the floor changed vx during the flight
+        vx = vx + kp.g_t * tau
     return collide(periods, phase, sn_c, cs_c, tile + k, xi_c, vx, vyrel_minus, kp)
 
 

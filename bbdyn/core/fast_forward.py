@@ -214,7 +214,7 @@ def converged_cycle(carry, i, n_rel, ev, acc, counts, kp):
         dP = ev.periods - r1[2]
         if r1[2] - r2[2] != dP or ev.tile - r1[3] != r1[3] - r2[3] or r1[4] != r2[4]:
             continue
-        if ev.phase != kp.release_r:
+        if ev.phase != kp.release_r or kp.g_t != 0.0:  # tilted: no tangent dynamics
             return 0
         same = True
         for c in range(CNT_WIDTH):

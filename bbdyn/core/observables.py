@@ -80,6 +80,15 @@ def flight_integrals(vx, vy0, y0, g, ta, tb):
     return I_Ex, I_Ey, I_pot
 
 
+@njit(cache=True, fastmath=FMA, inline="always")
+def tilt_kinetic_x(vx, g_t, ta, tb):
+    """What a pull ``g_t`` (mm/s^2) along a tilted floor adds over ``[ta, tb]`` to the integral
+    of ``vx^2 / 2`` (kg mm^2 / s): the integral of ``(vx + g_t t)^2 / 2 - vx^2 / 2`` =
+    ``g_t [vx (tb^2 - ta^2) / 2 + g_t (tb^3 - ta^3) / 6]``, differences as products."""
+    dt = tb - ta
+    return g_t * dt * (0.5 * vx * (tb + ta) + g_t * (tb * tb + tb * ta + ta * ta) * (1.0 / 6.0))
+
+
 @njit(cache=True, fastmath=FMA, forceinline=True)
 def stuck_integrals(A, w, g, b, phase_a, dt):
     """Integrals over ``dt`` seconds from phase ``phase_a`` of a particle riding the floor.
@@ -160,6 +169,8 @@ def accumulate_interval(acc, j, ev, trig, b, lo, hi, kp, energy):
         acc[j, ACC_EX] += I_Ex
         acc[j, ACC_EY] += I_Ey
         acc[j, ACC_POT] += I_pot
+        if kp.g_t != 0.0:  # tilted: E_x of vx + g_t t (after the untilted sums, bit for bit)
+            acc[j, ACC_EX] += tilt_kinetic_x(ev.vx, kp.g_t, ta, tb)
 
 
 # Inlined into the event loop (see accumulate_interval).

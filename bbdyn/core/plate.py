@@ -198,7 +198,16 @@ def stick_release(periods, phase, kp):
     (rad) and ``OK``, or the stick's own time and ``STUCK_FOREVER`` for
     Gamma <= 1 (no window: it never leaves).
     """
-    theta_r, theta_e = kp.release_r, kp.release_e
+    return stick_release_in(periods, phase, kp.release_r, kp.release_e)
+
+
+@njit(cache=True, fastmath=FMA, inline="always", error_model="numpy")
+def stick_release_in(periods, phase, theta_r, theta_e):
+    """``stick_release`` in the window ``theta_r <= phase < theta_e`` (rad; both -1: none).
+
+    The billiard on a tilted floor has a window that depends on the point
+    (``billiard.tilted_window``).
+    """
     if theta_r < 0.0:
         return periods, phase, STUCK_FOREVER
     if theta_r <= phase < theta_e:

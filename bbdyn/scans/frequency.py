@@ -35,7 +35,14 @@ import numpy as np
 
 from bbdyn.core.status import STUCK_FOREVER
 from bbdyn.core.tolerances import OBS_INTEGRAL_REL_TOL, SUM_ROUND_PER_TERM
-from bbdyn.diffusion import einstein_D, einstein_D_bootstrap, einstein_D_windows, window_consistency
+from bbdyn.diffusion import (
+    drift_removed,
+    drift_velocity,
+    einstein_D,
+    einstein_D_bootstrap,
+    einstein_D_windows,
+    window_consistency,
+)
 from bbdyn.ensemble import ensembles
 from bbdyn.params import Params
 from bbdyn.runs import EVENT_COST_S, EVENTS_PER_PERIOD, check_n, check_run, check_size
@@ -257,6 +264,7 @@ def diffusion_point(
     beta: float | None = None,
     R: float | None = None,
     d: float | None = None,
+    phi: float | None = None,
     eta: float | None = None,
 ) -> dict[str, float | np.ndarray]:
     """D and the steady-state energies of the reference ensemble at one frequency.
@@ -277,9 +285,11 @@ def diffusion_point(
         Equally spaced displacement samples in ``[0, t]`` (the MSD curve), >= 11.
     n_boot : int
         Bootstrap resamples of D.
-    A, alpha, beta, R, d, eta : float, optional
+    A, alpha, beta, R, d, phi, eta : float, optional
         Other parameters (default parameters (docs/model.md) if None); ``eta > 0``: random
-        restitution, keyed by the point's seed.
+        restitution, keyed by the point's seed.  With a tilt (``phi != 0``) every D and
+        ``msd`` are about the drift (``bbdyn.diffusion.drift_removed``); the drift velocity
+        ``v_d``, ``v_d_se`` (mm/s) is added.
 
     Returns
     -------
@@ -297,7 +307,8 @@ def diffusion_point(
     >>> out["trapped"], out["D"], out["D_se"]
     (1, 0.0, 0.0)
     """
-    given = (("A", A), ("alpha", alpha), ("beta", beta), ("R", R), ("d", d), ("eta", eta))
+    given = (("A", A), ("alpha", alpha), ("beta", beta), ("R", R), ("d", d), ("phi", phi),
+             ("eta", eta))
     changes = {k: v for k, v in given if v is not None}
     options = dict(n=n, t=t, transient=transient, n_samples=n_samples, n_boot=n_boot)
     return diffusion_points([f], [seed_sequence], **options, **changes)[0]
@@ -319,7 +330,7 @@ def diffusion_points(
     """``diffusion_point`` at each frequency with its seed sequence, the ensembles run
     together (``bbdyn.ensemble.ensembles``, ``progress`` its fraction done): on the GPU
     (``device="cuda"``) all of them in one or a few launches.  ``model``: ``A, alpha, beta,
-    R, d, eta`` (as ``diffusion_point``).  The batch form of ``diffusion_point`` for
+    R, d, phi, eta`` (as ``diffusion_point``).  The batch form of ``diffusion_point`` for
     ``run_scan(..., device="cuda")``."""
     changes = {k: v for k, v in model.items() if v is not None}
     params = [Params(f=f, **changes) for f in frequencies]
@@ -351,6 +362,9 @@ def _point_outputs(res, params: Params, boot_seed, n_boot: int) -> dict[str, flo
     f, t, n = params.f, res.meta["t"], res.meta["n"]
     times, disp = res["sample_times"], res["displacement"]
     out: dict[str, float | np.ndarray] = {"gamma": params.gamma}
+    if params.phi != 0.0:
+        out["v_d"], out["v_d_se"] = (float(v) for v in drift_velocity(times, disp, D_WINDOW))
+        disp = drift_removed(disp)
     # stuck for good before the first D window: x is constant in every window, D = 0
     # exactly (a fit would return rounding noise, and a test of it noise about noise)
     stick_periods = res["final"][:, 0] + res["final"][:, 1] / (2 * math.pi)
@@ -461,9 +475,9 @@ def _model_changes(model: dict) -> dict[str, float]:
     """The entries of ``model`` that differ from the ``Params`` defaults (ValueError for a
     name ``diffusion_point`` does not take)."""
     defaults = Params(f=1.0).to_dict()
-    unknown = sorted(set(model) - {"A", "alpha", "beta", "R", "d", "eta"})
+    unknown = sorted(set(model) - {"A", "alpha", "beta", "R", "d", "phi", "eta"})
     if unknown:
-        raise ValueError(f"model takes A, alpha, beta, R, d, eta; got {', '.join(unknown)}")
+        raise ValueError(f"model takes A, alpha, beta, R, d, phi, eta; got {', '.join(unknown)}")
     return {k: float(v) for k, v in model.items() if float(v) != defaults[k]}
 
 
@@ -486,9 +500,9 @@ def frequency_scan(
 
     ``device="cuda"``: on this machine's GPU, all frequencies together (``run_scan``).
 
-    ``model`` sets parameters other than f (``A``, ``alpha``, ``beta``, ``R``, ``d``, ``eta``);
-    only those that differ from the ``Params`` defaults become arguments of the scan, so
-    a scan at the defaults is the same scan with or without them.
+    ``model`` sets parameters other than f (``A``, ``alpha``, ``beta``, ``R``, ``d``, ``phi``,
+    ``eta``); only those that differ from the ``Params`` defaults become arguments of the
+    scan, so a scan at the defaults is the same scan with or without them.
 
     The arguments are checked at every frequency, and the scan's size (``check_scan_size``),
     before anything is written.  Every finished frequency is stored in ``out_dir`` at once;

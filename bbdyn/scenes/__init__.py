@@ -56,6 +56,7 @@ SCENES = {
     "B5": "b5_lyapunov",
     "B4": "b4_higher_tongues",
     "B6": "b6_fine_structure",
+    "B7": "b7_tilt",
     "B8": "b8_noise",
     "B9": "b9_distributions",
 }

@@ -43,6 +43,7 @@ DOCS_FIGURES = {
     "B4": ("full", "B4_full"),
     "B5": ("medium", "B5_medium"),
     "B6": ("full", "B6_full"),
+    "B7": ("medium", "B7_medium"),
     "B8": ("medium", "B8_medium"),
     "B9": ("full", "B9_full"),
 }
