@@ -79,7 +79,7 @@ def test_parameter_defaults_equal_params():
         assert float(default) == getattr(p, field), f"default of {symbol} ({field})"
         checked += 1
     fields = {f for f in p.to_dict() if f != "f"}
-    assert checked == len(fields) == 7
+    assert checked == len(fields) == 8
 
 
 def test_derived_values_equal_params():
