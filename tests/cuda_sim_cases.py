@@ -29,7 +29,8 @@ from bbdyn.schema import standard_key
 #: stick-release cycles; 58 Hz: the 1/1 locked orbit; the flat ball: a flat floor (R = 1e9
 #: mm) at 85.2 Hz; the static floor: A = 0, every particle chatters to rest in closed form.
 #: 85.2 Hz chaotic, for the bookkeeping of the observables (jumps included); 85.2 Hz with
-#: random restitution (eta > 0): the counter-based draws keyed on (seed, particle, flight).
+#: random restitution (eta > 0): the counter-based draws keyed on (seed, particle, flight);
+#: 85.2 Hz on a floor tilted by 0.5 degrees (parabolic flights along the floor).
 SMALL = {"n": 6, "t": 0.5, "seed": 3}
 CASES = (
     ("trapped_55", Params(f=55.0), SMALL),
@@ -37,6 +38,7 @@ CASES = (
     ("flat_ball", Params(f=85.2, R=1e9), SMALL),
     ("chaotic_85", Params(f=85.2), {**SMALL, "observables": ("displacement", "energy", "jumps")}),
     ("noisy_85", Params(f=85.2, eta=0.1), SMALL),
+    ("tilted_85", Params(f=85.2, phi=0.5), SMALL),
 )
 #: The static floor's particles: at the top of the arc of a flat floor, vertical launches.
 STATIC = Params(f=58.0, A=0.0, R=1e9)

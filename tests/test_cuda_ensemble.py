@@ -49,7 +49,8 @@ def sim():
     return json.loads(run.stdout)
 
 
-@pytest.mark.parametrize("case", ["trapped_55", "locked_58", "flat_ball", "chaotic_85", "noisy_85"])
+@pytest.mark.parametrize("case", ["trapped_55", "locked_58", "flat_ball", "chaotic_85", "noisy_85",
+                                  "tilted_85"])
 def test_simulated_device_is_the_cpu_bit_for_bit(sim, case):
     out = sim[case]
     assert out["differ"] == [], f"{case}: arrays differ from the CPU's: {out['differ']}"
@@ -60,8 +61,8 @@ def test_simulated_device_is_the_cpu_bit_for_bit(sim, case):
 
 def test_points_of_one_launch_keep_their_own_parameters_and_times(sim):
     """Four frequencies in one launch, cut into several launches, each as alone on the CPU."""
-    assert sim["batch"]["differ"] == [[]] * 5
-    assert sim["batch"]["batch"] == [5] * 5
+    assert sim["batch"]["differ"] == [[]] * 6
+    assert sim["batch"]["batch"] == [6] * 6
 
 
 def test_static_floor_chatters_to_rest_at_the_closed_form_time(sim):
