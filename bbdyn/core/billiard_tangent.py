@@ -519,10 +519,8 @@ def billiard_tangent_run(state, kp, t_ends, frame, qr_every, out, spec):
             j += 1
         carried = before == IMPACT and kind == IMPACT
         if pending > 0 and (not carried or j != pending_window):
-            status = _qr_step(A, logs, pending_window, out_log, spec)
-            spec.carried[pending_window] += pending
-            spec.log_det[pending_window] += pending_det
-            spec.carried_time[pending_window] += pending_time
+            status = _qr_step(A, logs, pending_window, out_log, spec, pending, pending_det,
+                              pending_time)  # fmt: skip
             pending, pending_det, pending_time = 0, 0.0, 0.0
             if status != OK:
                 break
@@ -534,10 +532,7 @@ def billiard_tangent_run(state, kp, t_ends, frame, qr_every, out, spec):
             if m == 4:
                 pending_det += event_log_det(xi0, vx0, vy0, xi, vx, vyrel, reflections, kp)
             if pending == qr_every:
-                status = _qr_step(A, logs, j, out_log, spec)
-                spec.carried[j] += pending
-                spec.log_det[j] += pending_det
-                spec.carried_time[j] += pending_time
+                status = _qr_step(A, logs, j, out_log, spec, pending, pending_det, pending_time)
                 pending, pending_det, pending_time = 0, 0.0, 0.0
                 if status != OK:
                     break
@@ -564,19 +559,21 @@ def billiard_tangent_run(state, kp, t_ends, frame, qr_every, out, spec):
         if t > t_ends[j]:
             j += 1
     if pending > 0 and (status == OK or status == STUCK_FOREVER):
-        qr = _qr_step(A, logs, pending_window, out_log, spec)
-        spec.carried[pending_window] += pending
-        spec.log_det[pending_window] += pending_det
-        spec.carried_time[pending_window] += pending_time
+        qr = _qr_step(A, logs, pending_window, out_log, spec, pending, pending_det, pending_time)
         status = status if qr == OK else qr
     frame[:, :] = A
     return (periods, phase, tile, xi, vx, vyrel, kind), status
 
 
 @njit(cache=True, fastmath=FMA, inline="always", error_model="numpy")
-def _qr_step(A, logs, j, out_log, spec):
-    """The QR step of ``billiard_tangent_run``: orthonormalise ``A``, add ``log R_ii`` to
-    window ``j``; ``NON_FINITE`` for a non-finite column (a grazing contact), else ``OK``."""
+def _qr_step(A, logs, j, out_log, spec, pending, pending_det, pending_time):
+    """The QR step of ``billiard_tangent_run``: count the ``pending`` carried events since the
+    last step, their closed-form ``log |det J|`` sum ``pending_det`` and their time (s) in
+    window ``j``; orthonormalise ``A`` and add ``log R_ii`` to window ``j``.  ``NON_FINITE``
+    for a non-finite column (a grazing contact), else ``OK``."""
+    spec.carried[j] += pending
+    spec.log_det[j] += pending_det
+    spec.carried_time[j] += pending_time
     orthonormalise(A, logs)
     for c in range(A.shape[1]):
         if not math.isfinite(logs[c]):

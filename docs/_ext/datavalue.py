@@ -125,10 +125,15 @@ class DataTable(SphinxDirective):
             lines = table_markdown(self.arguments[0])
         except (KeyError, ValueError) as err:
             raise self.error(f"data table: {err}") from err
-        container = nodes.container()
-        self.state.nested_parse(StringList(lines, source=self.env.docname), self.content_offset,
-                                container)  # fmt: skip
-        return container.children
+        return markdown_nodes(self, lines)
+
+
+def markdown_nodes(directive: SphinxDirective, lines: list[str]) -> list:
+    """The nodes of the Markdown ``lines`` parsed in place of ``directive``."""
+    container = nodes.container()
+    directive.state.nested_parse(StringList(lines, source=directive.env.docname),
+                                 directive.content_offset, container)  # fmt: skip
+    return container.children
 
 
 def setup(app):

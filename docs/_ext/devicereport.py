@@ -16,6 +16,7 @@ import json
 import math
 from pathlib import Path
 
+from datavalue import markdown_nodes
 from docutils import nodes
 from docutils.statemachine import StringList
 from sphinx.util.docutils import SphinxDirective
@@ -135,11 +136,7 @@ class DeviceReport(SphinxDirective):
                                     self.content_offset, note)  # fmt: skip
             return [note]
         self.env.note_dependency(str(path))
-        lines = report_markdown(json.loads(path.read_text()))
-        container = nodes.container()
-        self.state.nested_parse(StringList(lines, source=self.env.docname), self.content_offset,
-                                container)  # fmt: skip
-        return container.children
+        return markdown_nodes(self, report_markdown(json.loads(path.read_text())))
 
 
 def setup(app):
