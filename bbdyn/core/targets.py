@@ -23,15 +23,23 @@ class _Device:
 
 
 def cuda_missing() -> str | None:
-    """Why PTX cannot be compiled here (numba-cuda or NVVM missing), or None."""
+    """Why PTX cannot be compiled here (numba-cuda, NVVM or NVRTC missing), or None.
+
+    numba-cuda alone (the ``test`` extra) runs the CUDA simulator; compiling PTX also needs
+    libnvvm and libnvrtc, which come with the NVIDIA wheels of the ``gpu`` extra.
+    """
     try:
         import numba_cuda  # noqa: F401
     except ImportError:
         return "numba-cuda is not installed (pip install bbdyn[gpu])"
-    from numba.cuda.cudadrv import nvvm
+    from numba.cuda.cudadrv import nvrtc, nvvm
 
     if not nvvm.is_available():
         return "NVVM (libnvvm) was not found (pip install bbdyn[gpu])"
+    try:
+        nvrtc.get_supported_ccs()  # loads libnvrtc, which PTX compilation asks for the arch
+    except Exception as err:  # cuda-bindings raises its own error types when it is absent
+        return f"NVRTC (libnvrtc) was not found (pip install bbdyn[gpu]): {type(err).__name__}"
     return None
 
 
