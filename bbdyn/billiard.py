@@ -42,14 +42,16 @@ _KINDS = (IMPACT, STICK, RELEASE)
 
 def floor_profile(params: Params, xi) -> tuple[np.ndarray, np.ndarray]:
     """Arc length s from the left wedge and height b (mm) of the static floor at the local
-    coordinates ``xi`` (mm, in [-d/2, d/2]; 0 is the arc top): docs/model.md §2."""
+    coordinates ``xi`` (mm, in [-d/2, d/2]; 0 is the arc top): docs/model.md §2.  Geometry
+    only: the same for any noise amplitude ``eta``."""
     xi = np.ascontiguousarray(xi, dtype=np.float64)
-    return arc_coordinates(xi, params.kernel())
+    return arc_coordinates(xi, params.kernel(noise=True))
 
 
 def xi_at_arc_length(params: Params, s: float) -> float:
-    """Local coordinate xi (mm) of the floor point at arc length ``s`` (mm) from the left wedge."""
-    return xi_from_arc_length(float(s), params.kernel())
+    """Local coordinate xi (mm) of the floor point at arc length ``s`` (mm) from the left wedge
+    (geometry only: the same for any noise amplitude ``eta``)."""
+    return xi_from_arc_length(float(s), params.kernel(noise=True))
 
 
 def state_from_section(

@@ -265,7 +265,8 @@ def trajectory_pieces(
         raise ValueError(f"rows {start} and {stop} belong to different particles")
     if int(points) != points or points < 2:
         raise ValueError(f"points must be an integer >= 2, got {points!r}")
-    kp = Params(**result.meta["params"]).kernel()
+    # the flights between recorded events: free fall, whatever restitution ended them (eta)
+    kp = Params(**result.meta["params"]).kernel(noise=True)
     rows = np.arange(start, stop)
     periods, phase = result["periods"], result["phase"]
     dt = (periods[rows + 1] - periods[rows]) * kp.period + (phase[rows + 1] - phase[rows]) / kp.w

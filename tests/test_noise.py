@@ -19,7 +19,7 @@ from numba import njit
 from scipy import stats
 
 from bbdyn import Params
-from bbdyn.billiard import simulate
+from bbdyn.billiard import floor_profile, simulate, xi_at_arc_length
 from bbdyn.core import targets
 from bbdyn.core.noise import noisy_params
 from bbdyn.core.rng import philox4x32, unit_double
@@ -175,6 +175,16 @@ def test_eta_outside_zero_one_is_refused(eta):
 def test_deterministic_computations_refuse_eta():
     with pytest.raises(ValueError, match="eta = 0.1: random restitution is modelled by the"):
         simulate(Params(f=58.0, eta=0.1), n_events=5, s0=1.0, vx0=0.0, vy0=30.0)
+
+
+def test_floor_geometry_is_the_same_for_any_eta():
+    """The floor's shape does not depend on the restitution: the geometry helpers (which
+    place a noisy ensemble's particles, bbdyn.correlations) give the same bits for any eta."""
+    xi = np.linspace(-1.0, 1.0, 9)
+    for got, expect in zip(floor_profile(Params(f=58.0, eta=0.3), xi),
+                           floor_profile(Params(f=58.0), xi), strict=True):  # fmt: skip
+        assert np.array_equal(got, expect)
+    assert xi_at_arc_length(Params(f=58.0, eta=0.3), 0.7) == xi_at_arc_length(Params(f=58.0), 0.7)
 
 
 def test_peak_prominence_and_washout_arithmetic():
