@@ -1,4 +1,4 @@
-"""`bbdyn classify --f F [--A --alpha --beta --R --d] [--n N --t T --seed S --box ...]
+"""`bbdyn classify --f F [--A --alpha --beta --R --d --phi --eta] [--n N --t T --seed S --box ...]
 [--hop-floor P] [--json]`.
 
 Runs ``bbdyn.classify.classify`` and prints the verdict and its evidence: the

@@ -1,4 +1,4 @@
-"""`bbdyn correlations --f F [--A --alpha --beta --R --d] [--n N --t T --seed S]
+"""`bbdyn correlations --f F [--A --alpha --beta --R --d --phi --eta] [--n N --t T --seed S]
 [--cutoff T_C] [--json] [--save NAME]`.
 
 Runs ``bbdyn.correlations.correlations`` at one frequency: the Green-Kubo integral of the

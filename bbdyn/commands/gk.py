@@ -1,4 +1,5 @@
-"""`bbdyn gk --f F [--A --alpha --beta --R --d] [--nmax 10 --n N --t T --seed S] [--json]`.
+"""`bbdyn gk --f F [--A --alpha --beta --R --d --phi --eta] [--nmax 10 --n N --t T --seed S]
+[--json]`.
 
 Runs the reference ensemble at one frequency (``bbdyn.scans.green_kubo.gk_run``) and prints
 the escape time tau, ``D_rw``, the measured ``r = E_y / E_x`` and ``D_a`` with it,
