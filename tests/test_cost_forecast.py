@@ -25,7 +25,7 @@ from bbdyn.scans.frequency import (
     scan_cpu_forecast,
 )
 from bbdyn.scans.runner import local_workers, point_seed
-from bbdyn.scenes import scene_module, scene_settings
+from bbdyn.scenes import SCENES, scene_module, scene_settings
 from bbdyn.scenes.reproduce import cost_lines
 
 #: the full S3 scan measured on the idle machine (docs/benchmarks.md, "The full scan and its
@@ -78,6 +78,16 @@ def test_forecast_counts_workers_once_per_process_and_compilation_apart():
     assert four["compile_cpu_s"] == 4 * WORKER_COMPILE_CPU_S
     twice = scan_cpu_forecast(200.0, 8, 10, 2.0, workers=4)
     assert twice["cpu_s"] - four["cpu_s"] == pytest.approx(100.0 * 10 * 2.0 * POINT_PERIOD_CPU_S)
+
+
+def test_every_scene_cost_follows_the_protocol():
+    """``bbdyn reproduce`` asks every scene with a ``cost`` for its forecast: each returns
+    the forecast CPU time and the compile time (a scene whose ``cost`` means something else
+    stops the main job)."""
+    for setting in ("quick", "full"):
+        lines = cost_lines(list(SCENES), setting)
+        costed = [i for i in SCENES if hasattr(scene_module(i), "cost")]
+        assert [line.split(":")[0] for line in lines] == costed
 
 
 def test_reproduce_cost_lines_say_what_they_include():

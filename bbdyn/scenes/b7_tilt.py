@@ -86,9 +86,11 @@ def drift_point(f: float, phi: float, n: int, t: float, seed: int) -> dict[str, 
             "n_failed": float(np.count_nonzero(~res.ok))}  # fmt: skip
 
 
-def cost(settings: dict, rate_s: float | None = None) -> dict[str, float]:
+def work(settings: dict, rate_s: float | None = None) -> dict[str, float]:
     """Points of ``settings`` and, with the measured mean CPU seconds per particle and
-    simulated second ``rate_s``, the forecast CPU time (s)."""
+    simulated second ``rate_s``, the forecast CPU time (s).  (Not the scene protocol's
+    ``cost``: the tilted search has no forecast model of its own; ``docs/data/tilt_numbers.py``
+    measures the rate.)"""
     n_f = frequencies(settings).size
     n_sweep = len(settings["sweep_f"]) * len(settings["sweep_phi"])
     work = n_f * settings["n"] * settings["t"] + n_sweep * settings["sweep_n"] * settings["sweep_t"]

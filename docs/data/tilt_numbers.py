@@ -6,7 +6,7 @@ Run from the repository root (nice it: about half a minute of CPU):
 
 * ``forecast``: CPU seconds of each setting of scene B7 (quick, medium, full), from the
   cost per particle and simulated second measured over every point of the committed figure
-  ``docs/figures/B7_medium`` (``bbdyn.scenes.b7_tilt.cost``).
+  ``docs/figures/B7_medium`` (``bbdyn.scenes.b7_tilt.work``).
 * ``search_cost``: the cost of the tilted event search, which does without the Taylor
   shortcuts of the untilted one: CPU seconds and events of the same ensemble (n = 200,
   t = 10 s, seed 0, one thread, fast-forward off) untilted and at phi = 1e-9 degrees (the
@@ -37,7 +37,7 @@ def forecasts() -> dict:
     rate = json.loads(FIGURE.read_text())["meta"]["key_numbers"]["cpu_s_per_particle_second"]
     out = {"rate_s": rate}
     for name in ("QUICK", "MEDIUM", "FULL"):
-        out[name.lower()] = b7_tilt.cost(getattr(b7_tilt, name), rate)
+        out[name.lower()] = b7_tilt.work(getattr(b7_tilt, name), rate)
     return out
 
 
